@@ -1,0 +1,360 @@
+//! Embree 3 behind a safe interface: the only module with `unsafe` code.
+//!
+//! Ownership follows Embree's reference counting: [`Device`] owns one
+//! `RTCDevice` and [`EmbreeIntersector`] owns one committed `RTCScene` plus the
+//! device it was made on; each handle is released exactly once, in `Drop`.
+//! Embree's error callback writes into a sink owned by the `Device`, and every
+//! fallible call drains it into a Rust [`Error`], so a failure never turns into
+//! a silently black image.
+
+mod ffi;
+
+use std::ffi::{c_char, c_void, CStr};
+use std::sync::Mutex;
+
+use glam::Vec3;
+
+use super::{Hit, Intersector, Ray};
+use crate::error::{Error, Result};
+
+/// Triangles as Embree reads them: shared positions and index triples.
+#[derive(Debug, Clone, Copy)]
+pub struct TriangleView<'a> {
+    /// Vertex positions.
+    pub positions: &'a [Vec3],
+    /// Counter-clockwise vertex indices, three per triangle.
+    pub indices: &'a [[u32; 3]],
+}
+
+/// Where Embree's error callback leaves the first error it reports.
+#[derive(Default)]
+struct ErrorSink {
+    first: Mutex<Option<Error>>,
+}
+
+/// The callback Embree calls on any device error. It must not unwind into C.
+extern "C" fn record_error(user: *mut c_void, code: ffi::RTCError, message: *const c_char) {
+    let _ = std::panic::catch_unwind(|| {
+        // SAFETY: `user` is the `ErrorSink` boxed inside the `Device` that
+        // registered this callback; the box outlives the device handle.
+        let sink = unsafe { &*(user as *const ErrorSink) };
+        let message = if message.is_null() {
+            String::new()
+        } else {
+            // SAFETY: Embree passes a NUL-terminated string valid for this call.
+            unsafe { CStr::from_ptr(message) }
+                .to_string_lossy()
+                .into_owned()
+        };
+        if let Ok(mut first) = sink.first.lock() {
+            first.get_or_insert(Error::Embree {
+                code: error_name(code),
+                message,
+            });
+        }
+    });
+}
+
+fn error_name(code: ffi::RTCError) -> &'static str {
+    match code {
+        ffi::RTC_ERROR_NONE => "RTC_ERROR_NONE",
+        ffi::RTC_ERROR_INVALID_ARGUMENT => "RTC_ERROR_INVALID_ARGUMENT",
+        ffi::RTC_ERROR_INVALID_OPERATION => "RTC_ERROR_INVALID_OPERATION",
+        ffi::RTC_ERROR_OUT_OF_MEMORY => "RTC_ERROR_OUT_OF_MEMORY",
+        ffi::RTC_ERROR_UNSUPPORTED_CPU => "RTC_ERROR_UNSUPPORTED_CPU",
+        ffi::RTC_ERROR_CANCELLED => "RTC_ERROR_CANCELLED",
+        _ => "RTC_ERROR_UNKNOWN",
+    }
+}
+
+/// An Embree device: Embree's global state (thread pool, CPU dispatch).
+pub struct Device {
+    raw: ffi::RTCDevice,
+    // Boxed so its address stays fixed while Embree holds a pointer to it.
+    errors: Box<ErrorSink>,
+}
+
+impl Device {
+    /// Creates a device with Embree's default configuration.
+    pub fn new() -> Result<Self> {
+        // SAFETY: a null config string asks for the defaults.
+        let raw = unsafe { ffi::rtcNewDevice(std::ptr::null()) };
+        if raw.is_null() {
+            // SAFETY: with a null device this reads the thread's creation error.
+            let code = unsafe { ffi::rtcGetDeviceError(std::ptr::null_mut()) };
+            return Err(Error::Embree {
+                code: error_name(code),
+                message: "rtcNewDevice failed (is this CPU supported by Embree?)".into(),
+            });
+        }
+        let errors = Box::<ErrorSink>::default();
+        let user = &*errors as *const ErrorSink as *mut c_void;
+        // SAFETY: `raw` is a live device; `user` points into `errors`, which is
+        // owned by the returned `Device` and so outlives every callback.
+        unsafe { ffi::rtcSetDeviceErrorFunction(raw, Some(record_error), user) };
+        Ok(Device { raw, errors })
+    }
+
+    /// Embree's version, e.g. `"3.13.5"`.
+    pub fn version(&self) -> String {
+        // SAFETY: `raw` is a live device and the property is read-only.
+        let v = unsafe { ffi::rtcGetDeviceProperty(self.raw, ffi::RTC_DEVICE_PROPERTY_VERSION) };
+        format!("{}.{}.{}", v / 10000, (v / 100) % 100, v % 100)
+    }
+
+    /// Returns the first error Embree reported since the last check, if any.
+    fn check(&self) -> Result<()> {
+        let mut first = self.errors.first.lock().unwrap_or_else(|e| e.into_inner());
+        match first.take() {
+            Some(err) => Err(err),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Drop for Device {
+    fn drop(&mut self) {
+        // SAFETY: `raw` came from `rtcNewDevice` and is released only here.
+        unsafe { ffi::rtcReleaseDevice(self.raw) };
+    }
+}
+
+/// A committed Embree scene of triangle meshes, ready for queries.
+///
+/// Geometry ids equal the meshes' positions in the slice given to [`build`].
+///
+/// [`build`]: EmbreeIntersector::build
+pub struct EmbreeIntersector {
+    scene: ffi::RTCScene,
+    // Declared after `scene`; released after it in `Drop` order.
+    device: Device,
+}
+
+// SAFETY: the scene is committed in `build` and never modified afterwards.
+// Embree documents `rtcIntersect1`/`rtcOccluded1` on a committed scene as safe
+// to call from any number of threads at once, and releasing happens only in
+// `Drop`, which has exclusive access. The error sink is behind a `Mutex`.
+unsafe impl Send for EmbreeIntersector {}
+// SAFETY: see `Send` above: all `&self` methods are Embree's thread-safe queries.
+unsafe impl Sync for EmbreeIntersector {}
+
+impl EmbreeIntersector {
+    /// Builds and commits a scene holding `meshes`, one Embree geometry each.
+    ///
+    /// Returns an error (never undefined behaviour) if an index is out of range.
+    pub fn build(meshes: &[TriangleView<'_>]) -> Result<Self> {
+        let device = Device::new()?;
+        // SAFETY: `device.raw` is a live device.
+        let scene = unsafe { ffi::rtcNewScene(device.raw) };
+        device.check()?;
+        let this = EmbreeIntersector { scene, device };
+        // SAFETY: `scene` is live and not yet committed.
+        unsafe { ffi::rtcSetSceneFlags(scene, ffi::RTC_SCENE_FLAG_ROBUST) };
+        for (id, mesh) in meshes.iter().enumerate() {
+            this.attach(id as u32, mesh)?;
+        }
+        // SAFETY: all geometries are attached; committing builds the BVH.
+        unsafe { ffi::rtcCommitScene(scene) };
+        this.device.check()?;
+        Ok(this)
+    }
+
+    fn attach(&self, id: u32, mesh: &TriangleView<'_>) -> Result<()> {
+        let vertex_count = mesh.positions.len();
+        if let Some(bad) = mesh
+            .indices
+            .iter()
+            .flatten()
+            .find(|&&i| i as usize >= vertex_count)
+        {
+            return Err(Error::Embree {
+                code: "RTC_ERROR_INVALID_ARGUMENT",
+                message: format!(
+                    "mesh {id}: vertex index {bad} out of range ({vertex_count} vertices)"
+                ),
+            });
+        }
+        // SAFETY: `device.raw` is live; the geometry is released below after attaching.
+        let geom = unsafe { ffi::rtcNewGeometry(self.device.raw, ffi::RTC_GEOMETRY_TYPE_TRIANGLE) };
+        self.device.check()?;
+        // SAFETY: `geom` is a new triangle geometry; Embree allocates (and pads
+        // to a 16-byte readable tail) buffers of exactly the requested sizes.
+        let vertices = unsafe {
+            ffi::rtcSetNewGeometryBuffer(
+                geom,
+                ffi::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                ffi::RTC_FORMAT_FLOAT3,
+                std::mem::size_of::<[f32; 3]>(),
+                vertex_count,
+            )
+        } as *mut [f32; 3];
+        // SAFETY: as above, for the index buffer.
+        let indices = unsafe {
+            ffi::rtcSetNewGeometryBuffer(
+                geom,
+                ffi::RTC_BUFFER_TYPE_INDEX,
+                0,
+                ffi::RTC_FORMAT_UINT3,
+                std::mem::size_of::<[u32; 3]>(),
+                mesh.indices.len(),
+            )
+        } as *mut [u32; 3];
+        if let Err(err) = self.device.check() {
+            // SAFETY: `geom` is live and owned here.
+            unsafe { ffi::rtcReleaseGeometry(geom) };
+            return Err(err);
+        }
+        if vertex_count > 0 {
+            // SAFETY: Embree returned a buffer of `vertex_count` float triples.
+            let dst = unsafe { std::slice::from_raw_parts_mut(vertices, vertex_count) };
+            for (d, p) in dst.iter_mut().zip(mesh.positions) {
+                *d = p.to_array();
+            }
+        }
+        if !mesh.indices.is_empty() {
+            // SAFETY: Embree returned a buffer of `indices.len()` u32 triples.
+            let dst = unsafe { std::slice::from_raw_parts_mut(indices, mesh.indices.len()) };
+            dst.copy_from_slice(mesh.indices);
+        }
+        // SAFETY: `geom` is complete; attaching takes a reference, so releasing
+        // ours afterwards leaves the scene as the sole owner.
+        unsafe {
+            ffi::rtcCommitGeometry(geom);
+            ffi::rtcAttachGeometryByID(self.scene, geom, id);
+            ffi::rtcReleaseGeometry(geom);
+        }
+        self.device.check()
+    }
+
+    fn ray(ray: &Ray) -> ffi::RTCRay {
+        ffi::RTCRay {
+            org_x: ray.origin.x,
+            org_y: ray.origin.y,
+            org_z: ray.origin.z,
+            tnear: 0.0,
+            dir_x: ray.dir.x,
+            dir_y: ray.dir.y,
+            dir_z: ray.dir.z,
+            time: 0.0,
+            tfar: ray.t_max,
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        }
+    }
+}
+
+impl Drop for EmbreeIntersector {
+    fn drop(&mut self) {
+        // SAFETY: `scene` came from `rtcNewScene` and is released only here.
+        unsafe { ffi::rtcReleaseScene(self.scene) };
+    }
+}
+
+impl Intersector for EmbreeIntersector {
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut context = ffi::new_intersect_context();
+        let mut rayhit = ffi::RTCRayHit {
+            ray: Self::ray(ray),
+            hit: ffi::RTCHit {
+                geomID: ffi::RTC_INVALID_GEOMETRY_ID,
+                primID: ffi::RTC_INVALID_GEOMETRY_ID,
+                instID: [ffi::RTC_INVALID_GEOMETRY_ID; ffi::RTC_MAX_INSTANCE_LEVEL_COUNT as usize],
+                ..Default::default()
+            },
+        };
+        // SAFETY: the scene is committed; `context` and `rayhit` are valid,
+        // and `RTCRayHit` is 16-byte aligned by its bindgen `repr(align(16))`.
+        unsafe { ffi::rtcIntersect1(self.scene, &mut context, &mut rayhit) };
+        let h = rayhit.hit;
+        (h.geomID != ffi::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
+            t: rayhit.ray.tfar,
+            u: h.u,
+            v: h.v,
+            geom_id: h.geomID,
+            prim_id: h.primID,
+            ng: Vec3::new(h.Ng_x, h.Ng_y, h.Ng_z),
+        })
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        let mut context = ffi::new_intersect_context();
+        let mut r = Self::ray(ray);
+        // SAFETY: as in `intersect`; `RTCRay` is 16-byte aligned.
+        unsafe { ffi::rtcOccluded1(self.scene, &mut context, &mut r) };
+        // Embree marks an occluded ray by setting tfar to -infinity.
+        r.tfar == f32::NEG_INFINITY
+    }
+
+    fn name(&self) -> String {
+        format!("embree {}", self.device.version())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_triangle() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        (vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]])
+    }
+
+    #[test]
+    fn hits_report_embree_barycentrics_and_ccw_normal() {
+        let (p, i) = unit_triangle();
+        let accel = EmbreeIntersector::build(&[TriangleView {
+            positions: &p,
+            indices: &i,
+        }])
+        .unwrap();
+        let hit = accel
+            .intersect(&Ray::new(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z))
+            .unwrap();
+        assert!((hit.t - 2.0).abs() < 1e-6);
+        assert!((hit.u - 0.25).abs() < 1e-6 && (hit.v - 0.5).abs() < 1e-6);
+        assert_eq!((hit.geom_id, hit.prim_id), (0, 0));
+        // (v1 - v0) x (v2 - v0) = X x Y = +Z.
+        assert!(
+            hit.ng.normalize().abs_diff_eq(Vec3::Z, 1e-6),
+            "ng = {}",
+            hit.ng
+        );
+        assert!(accel.occluded(&Ray::new(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z)));
+    }
+
+    #[test]
+    fn misses_and_t_max_are_respected() {
+        let (p, i) = unit_triangle();
+        let accel = EmbreeIntersector::build(&[TriangleView {
+            positions: &p,
+            indices: &i,
+        }])
+        .unwrap();
+        assert!(accel
+            .intersect(&Ray::new(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z))
+            .is_none());
+        let short = Ray {
+            t_max: 0.5,
+            ..Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z)
+        };
+        assert!(accel.intersect(&short).is_none());
+        assert!(!accel.occluded(&short));
+    }
+
+    #[test]
+    fn out_of_range_indices_are_an_error_not_a_crash() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let bad = [[0u32, 1, 7]];
+        let err = EmbreeIntersector::build(&[TriangleView {
+            positions: &p,
+            indices: &bad,
+        }]);
+        assert!(matches!(err, Err(Error::Embree { .. })));
+    }
+
+    #[test]
+    fn device_reports_a_3_x_version() {
+        assert!(Device::new().unwrap().version().starts_with("3."));
+    }
+}

@@ -1,0 +1,71 @@
+//! Ray/triangle intersection: the one narrow seam between the renderer and
+//! whichever acceleration structure answers its queries.
+//!
+//! [`Intersector`] is implemented by Embree ([`embree::EmbreeIntersector`], the
+//! default) and later by the native BVH. Both report hits in Embree's
+//! convention so that shading code never knows which one answered.
+
+pub mod embree;
+
+use glam::Vec3;
+
+/// A ray `origin + t * dir` for `t` in `[0, t_max]`.
+///
+/// `dir` need not be normalised; `t` is measured in units of `|dir|`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ray {
+    /// Where the ray starts (already offset off any surface it leaves).
+    pub origin: Vec3,
+    /// Direction of travel.
+    pub dir: Vec3,
+    /// The far end of the segment to test.
+    pub t_max: f32,
+}
+
+impl Ray {
+    /// A ray with unbounded extent.
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Ray {
+            origin,
+            dir,
+            t_max: f32::INFINITY,
+        }
+    }
+
+    /// The point at parameter `t`.
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + t * self.dir
+    }
+}
+
+/// The closest hit along a ray, in Embree's convention.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Ray parameter of the hit.
+    pub t: f32,
+    /// Barycentric weight of vertex 1; vertex weights are `(1-u-v, u, v)`.
+    pub u: f32,
+    /// Barycentric weight of vertex 2.
+    pub v: f32,
+    /// Index of the mesh (Embree geometry id) that was hit.
+    pub geom_id: u32,
+    /// Index of the triangle within that mesh.
+    pub prim_id: u32,
+    /// Unnormalised geometric normal `(v1 - v0) x (v2 - v0)`: it faces the side
+    /// from which the triangle's vertices appear counter-clockwise.
+    pub ng: Vec3,
+}
+
+/// Answers ray queries against a fixed set of triangle meshes.
+///
+/// Implementations must be safe to query from many threads at once.
+pub trait Intersector: Send + Sync {
+    /// The closest hit with `0 <= t <= ray.t_max`, if any.
+    fn intersect(&self, ray: &Ray) -> Option<Hit>;
+
+    /// Whether anything is hit with `0 <= t <= ray.t_max` (shadow rays).
+    fn occluded(&self, ray: &Ray) -> bool;
+
+    /// A short name for logs and benchmarks, e.g. `"embree 3.13.5"`.
+    fn name(&self) -> String;
+}

@@ -1,0 +1,20 @@
+//! caustix: a photon-mapping renderer. Embree finds ray/triangle hits; Rust
+//! does the rest.
+//!
+//! - [`scene`]: the scene file, meshes, built-in shapes, the teapot, OBJ.
+//! - [`accel`]: the [`accel::Intersector`] trait and the Embree backend (the
+//!   only `unsafe` code, in `accel::embree`).
+//! - [`material`], [`light`]: what surfaces and lights are.
+//! - [`render`]: camera, images, integrators.
+
+#![warn(missing_docs)]
+#![deny(unsafe_op_in_unsafe_fn)]
+
+pub mod accel;
+pub mod error;
+pub mod light;
+pub mod material;
+pub mod render;
+pub mod scene;
+
+pub use error::{Error, Result};

@@ -1,0 +1,115 @@
+//! The pinhole camera: an orthonormal basis from eye, look-at point and up
+//! vector, and primary rays through the image plane.
+
+use glam::Vec3;
+
+use crate::accel::Ray;
+
+/// A pinhole camera.
+///
+/// The basis is right-handed: `w` points from the look-at point back to the
+/// eye (the camera looks along `-w`), `u = normalize(up x w)` points to the
+/// image's right, and `v = w x u` to its top, so `u x v = w`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// Position of the pinhole.
+    pub eye: Vec3,
+    /// Right.
+    pub u: Vec3,
+    /// Up in the image.
+    pub v: Vec3,
+    /// Backwards (away from the scene).
+    pub w: Vec3,
+    /// `tan(vertical fov / 2)`: half the image plane's height at distance 1.
+    pub tan_half_fov: f32,
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `look_at`, with `up` roughly up and
+    /// `vertical_fov_deg` the full vertical field of view in degrees.
+    pub fn new(
+        eye: Vec3,
+        look_at: Vec3,
+        up: Vec3,
+        vertical_fov_deg: f32,
+    ) -> Result<Camera, String> {
+        let w = (eye - look_at)
+            .try_normalize()
+            .ok_or("the camera's eye and look_at are the same point; move one of them")?;
+        let u = up.cross(w).try_normalize().ok_or(
+            "the camera's up vector is zero or parallel to the viewing direction; choose an up that is not",
+        )?;
+        if !(vertical_fov_deg > 0.0 && vertical_fov_deg < 180.0) {
+            return Err(format!("the field of view must lie strictly between 0 and 180 degrees, found {vertical_fov_deg}"));
+        }
+        let v = w.cross(u);
+        let tan_half_fov = (0.5 * vertical_fov_deg.to_radians()).tan();
+        Ok(Camera {
+            eye,
+            u,
+            v,
+            w,
+            tan_half_fov,
+        })
+    }
+
+    /// The ray through image position `(x, y)` in pixels, measured from the
+    /// top-left corner of a `width x height` image (`(0.5, 0.5)` is the centre
+    /// of the top-left pixel). The direction is unit length.
+    pub fn ray(&self, x: f32, y: f32, width: u32, height: u32) -> Ray {
+        let scale = 2.0 * self.tan_half_fov / height as f32;
+        let sx = scale * (x - 0.5 * width as f32);
+        let sy = scale * (0.5 * height as f32 - y);
+        Ray::new(self.eye, (sx * self.u + sy * self.v - self.w).normalize())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn basis_is_orthonormal_and_right_handed() {
+        let cases = [
+            (Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, Vec3::Y),
+            (
+                Vec3::new(3.0, -2.0, 1.0),
+                Vec3::new(0.5, 0.5, -4.0),
+                Vec3::new(0.1, 1.0, 0.3),
+            ),
+            (Vec3::new(0.0, 10.0, 0.1), Vec3::ZERO, Vec3::Z),
+        ];
+        for (eye, at, up) in cases {
+            let c = Camera::new(eye, at, up, 40.0).unwrap();
+            for (a, b) in [(c.u, c.v), (c.v, c.w), (c.w, c.u)] {
+                assert!(a.dot(b).abs() < 1e-6);
+            }
+            for e in [c.u, c.v, c.w] {
+                assert!((e.length() - 1.0).abs() < 1e-6);
+            }
+            assert!(c.u.cross(c.v).abs_diff_eq(c.w, 1e-6), "not right-handed");
+            assert!(c.w.abs_diff_eq((eye - at).normalize(), 1e-6));
+            // Up in the image is on the side of the given up vector.
+            assert!(c.v.dot(up) > 0.0);
+        }
+    }
+
+    #[test]
+    fn centre_ray_looks_at_target_and_fov_spans_the_image() {
+        let c = Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 90.0).unwrap();
+        let r = c.ray(50.0, 50.0, 100, 100);
+        assert!(r.dir.abs_diff_eq(-Vec3::Z, 1e-6));
+        // Top edge of a 90-degree view is 45 degrees up; x grows to the right (+x).
+        let top = c.ray(50.0, 0.0, 100, 100).dir;
+        assert!((top.y - top.z.abs()).abs() < 1e-5 && top.y > 0.0);
+        assert!(c.ray(100.0, 50.0, 100, 100).dir.x > 0.0);
+    }
+
+    #[test]
+    fn degenerate_cameras_are_rejected() {
+        assert!(Camera::new(Vec3::ONE, Vec3::ONE, Vec3::Y, 40.0).is_err());
+        assert!(Camera::new(Vec3::Y, Vec3::ZERO, Vec3::Y, 40.0).is_err());
+        assert!(Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 180.0).is_err());
+        assert!(Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 0.0).is_err());
+    }
+}

@@ -1,0 +1,236 @@
+//! The scene file: TOML, read with serde. Unknown keys are errors (a typo
+//! never silently falls back to a default), and every number is checked as
+//! it is read; see `values.rs`. The README documents the format with a full
+//! example.
+
+use std::collections::BTreeMap;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::values::{whole_number, Finite, Point, Positive, Power, Reflectance, Scale, Size};
+
+/// Largest image side we accept (a typo like 100000 would exhaust memory).
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Most samples per pixel we accept.
+pub const MAX_SAMPLES: u32 = 1 << 16;
+/// Finest tessellation we accept (sphere: 20 * 4^9 = 5.2M triangles).
+pub const MAX_SPHERE_SUBDIVISIONS: u32 = 9;
+/// Finest teapot tessellation (32 * 2 * 1024^2 = 67M triangles).
+pub const MAX_TEAPOT_LEVEL: u32 = 1024;
+
+/// The whole file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    pub camera: CameraSection,
+    #[serde(default)]
+    pub image: ImageSection,
+    #[serde(default)]
+    pub materials: BTreeMap<String, Spanned<MaterialSection>>,
+    #[serde(default)]
+    pub point_light: Vec<PointLightSection>,
+    #[serde(default)]
+    pub area_light: Vec<AreaLightSection>,
+    #[serde(default)]
+    pub spot_light: Vec<SpotLightSection>,
+    #[serde(default)]
+    pub sphere: Vec<SphereSection>,
+    #[serde(default)]
+    pub quad: Vec<QuadSection>,
+    #[serde(default, rename = "box")]
+    pub cuboid: Vec<BoxSection>,
+    #[serde(default)]
+    pub teapot: Vec<TeapotSection>,
+    #[serde(default)]
+    pub mesh: Vec<MeshSection>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSection {
+    pub eye: Point,
+    pub look_at: Point,
+    #[serde(default = "default_up")]
+    pub up: Point,
+    /// Full vertical field of view in degrees.
+    #[serde(default = "default_fov")]
+    pub fov: Finite,
+}
+
+fn default_up() -> Point {
+    Point(glam::Vec3::Y)
+}
+
+fn default_fov() -> Finite {
+    Finite(40.0)
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImageSection {
+    #[serde(deserialize_with = "image_side")]
+    pub width: u32,
+    #[serde(deserialize_with = "image_side")]
+    pub height: u32,
+    #[serde(default = "default_samples", deserialize_with = "samples")]
+    pub samples: u32,
+}
+
+impl Default for ImageSection {
+    fn default() -> Self {
+        ImageSection {
+            width: 640,
+            height: 480,
+            samples: default_samples(),
+        }
+    }
+}
+
+fn default_samples() -> u32 {
+    4
+}
+
+fn image_side<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 1, MAX_IMAGE_SIDE)
+}
+
+fn samples<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 1, MAX_SAMPLES)
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSection {
+    #[serde(default)]
+    pub diffuse: Option<Reflectance>,
+    #[serde(default)]
+    pub specular: Option<Reflectance>,
+    #[serde(default)]
+    pub phong_exponent: Option<Positive>,
+    #[serde(default)]
+    pub mirror: Option<Reflectance>,
+    #[serde(default)]
+    pub transmittance: Option<Reflectance>,
+    #[serde(default)]
+    pub ior: Option<Positive>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointLightSection {
+    pub position: Point,
+    pub power: Power,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AreaLightSection {
+    pub center: Point,
+    /// Full edge vectors; light leaves from the side `u x v` faces.
+    pub u: Spanned<Point>,
+    pub v: Point,
+    pub power: Power,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpotLightSection {
+    pub position: Point,
+    pub direction: Spanned<Point>,
+    /// Half-angle of the cone, degrees.
+    pub cone_angle: Spanned<Positive>,
+    /// Half-angle where the fall-off starts, degrees (default: 80% of the cone).
+    #[serde(default)]
+    pub falloff_start: Option<Spanned<Finite>>,
+    pub power: Power,
+}
+
+/// Placement of an object: scale, then rotate, then translate.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformSection {
+    #[serde(default)]
+    pub scale: Option<Scale>,
+    /// Degrees about x, then y, then z.
+    #[serde(default)]
+    pub rotate: Option<Point>,
+    #[serde(default)]
+    pub translate: Option<Point>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSection {
+    pub center: Point,
+    pub radius: Positive,
+    #[serde(default = "default_subdivisions", deserialize_with = "sphere_level")]
+    pub subdivisions: u32,
+    pub material: Spanned<String>,
+    #[serde(default)]
+    pub transform: TransformSection,
+}
+
+fn default_subdivisions() -> u32 {
+    4
+}
+
+fn sphere_level<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 0, MAX_SPHERE_SUBDIVISIONS)
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuadSection {
+    pub center: Point,
+    /// Full edge vectors; the front faces `u x v`.
+    pub u: Spanned<Point>,
+    pub v: Point,
+    pub material: Spanned<String>,
+    #[serde(default)]
+    pub transform: TransformSection,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSection {
+    pub center: Point,
+    pub size: Size,
+    pub material: Spanned<String>,
+    #[serde(default)]
+    pub transform: TransformSection,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TeapotSection {
+    /// Quads per patch edge.
+    #[serde(default = "default_teapot_level", deserialize_with = "teapot_level")]
+    pub subdivisions: u32,
+    /// A `.bpt` file to use instead of the built-in teapot.
+    #[serde(default)]
+    pub file: Option<String>,
+    pub material: Spanned<String>,
+    #[serde(default)]
+    pub transform: TransformSection,
+}
+
+fn default_teapot_level() -> u32 {
+    8
+}
+
+fn teapot_level<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 1, MAX_TEAPOT_LEVEL)
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSection {
+    /// OBJ file, relative to the scene file.
+    pub file: Spanned<String>,
+    /// Overrides the file's MTL materials for every face.
+    #[serde(default)]
+    pub material: Option<Spanned<String>>,
+    #[serde(default)]
+    pub transform: TransformSection,
+}

@@ -1,0 +1,302 @@
+//! Triangle meshes: shared vertex positions, smooth per-vertex normals, and
+//! the smooth normal at a hit from Embree's barycentrics.
+
+use std::collections::HashMap;
+
+use glam::{Mat3, Mat4, Vec3};
+
+use crate::accel::embree::TriangleView;
+
+/// An axis-aligned bounding box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bounds {
+    /// Smallest corner.
+    pub min: Vec3,
+    /// Largest corner.
+    pub max: Vec3,
+}
+
+impl Bounds {
+    /// The empty box (contains nothing; any union replaces it).
+    pub const EMPTY: Bounds = Bounds {
+        min: Vec3::INFINITY,
+        max: Vec3::NEG_INFINITY,
+    };
+
+    /// The box around `points`.
+    pub fn of(points: &[Vec3]) -> Bounds {
+        points.iter().fold(Bounds::EMPTY, |b, &p| b.union_point(p))
+    }
+
+    /// This box grown to include `p`.
+    pub fn union_point(self, p: Vec3) -> Bounds {
+        Bounds {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    /// The box around both.
+    pub fn union(self, other: Bounds) -> Bounds {
+        Bounds {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    /// Whether the box holds no point.
+    pub fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+}
+
+/// A triangle mesh with one material.
+#[derive(Debug, Clone)]
+pub struct Mesh {
+    /// Where the mesh came from, for messages (`"sphere #2"`, `"bunny.obj"`).
+    pub name: String,
+    /// Vertex positions, shared between triangles.
+    pub positions: Vec<Vec3>,
+    /// Unit normal per vertex (same length as `positions`).
+    pub normals: Vec<Vec3>,
+    /// Vertex indices, counter-clockwise seen from the front (outside).
+    pub indices: Vec<[u32; 3]>,
+    /// Index into the scene's materials.
+    pub material: usize,
+}
+
+impl Mesh {
+    /// A mesh from positions and triangles. Triangles with zero area are
+    /// dropped (Embree could never hit them, and they have no normal). Without
+    /// `normals`, smooth vertex normals are computed with [`vertex_normals`].
+    ///
+    /// Indices must be in range; callers validate user data before this.
+    pub fn new(
+        name: impl Into<String>,
+        positions: Vec<Vec3>,
+        indices: Vec<[u32; 3]>,
+        normals: Option<Vec<Vec3>>,
+        material: usize,
+    ) -> Mesh {
+        debug_assert!(indices
+            .iter()
+            .flatten()
+            .all(|&i| (i as usize) < positions.len()));
+        let indices: Vec<[u32; 3]> = indices
+            .into_iter()
+            .filter(|&t| face_cross(&positions, t) != Vec3::ZERO)
+            .collect();
+        let normals = match normals {
+            Some(n) => n.into_iter().map(|n| n.normalize_or_zero()).collect(),
+            None => vertex_normals(&positions, &indices),
+        };
+        Mesh {
+            name: name.into(),
+            positions,
+            normals,
+            indices,
+            material,
+        }
+    }
+
+    /// The triangles as an intersector reads them.
+    pub fn view(&self) -> TriangleView<'_> {
+        TriangleView {
+            positions: &self.positions,
+            indices: &self.indices,
+        }
+    }
+
+    /// The bounding box of the vertices.
+    pub fn bounds(&self) -> Bounds {
+        Bounds::of(&self.positions)
+    }
+
+    /// Geometric normal of triangle `prim` (unit length, counter-clockwise side).
+    pub fn face_normal(&self, prim: u32) -> Vec3 {
+        face_cross(&self.positions, self.indices[prim as usize]).normalize()
+    }
+
+    /// The smooth shading normal at barycentrics `(u, v)` of triangle `prim`:
+    /// the normalised blend `(1-u-v) n0 + u n1 + v n2` (Embree's convention).
+    /// Falls back to the face normal where the blend cancels out.
+    pub fn shading_normal(&self, prim: u32, u: f32, v: f32) -> Vec3 {
+        let [i0, i1, i2] = self.indices[prim as usize];
+        let n = (1.0 - u - v) * self.normals[i0 as usize]
+            + u * self.normals[i1 as usize]
+            + v * self.normals[i2 as usize];
+        n.try_normalize().unwrap_or_else(|| self.face_normal(prim))
+    }
+
+    /// Applies an affine transform: points by `m`, normals by its inverse
+    /// transpose. A mirroring transform (negative determinant) also flips the
+    /// winding so that the counter-clockwise side stays the outside.
+    pub fn transform(&mut self, m: &Mat4) {
+        for p in &mut self.positions {
+            *p = m.transform_point3(*p);
+        }
+        let linear = Mat3::from_mat4(*m);
+        let normal_matrix = linear.inverse().transpose();
+        for n in &mut self.normals {
+            *n = (normal_matrix * *n).normalize_or_zero();
+        }
+        if linear.determinant() < 0.0 {
+            for t in &mut self.indices {
+                t.swap(1, 2);
+            }
+        }
+    }
+}
+
+/// `(p1 - p0) x (p2 - p0)`: twice the area, along the counter-clockwise normal.
+fn face_cross(positions: &[Vec3], [i0, i1, i2]: [u32; 3]) -> Vec3 {
+    let p0 = positions[i0 as usize];
+    (positions[i1 as usize] - p0).cross(positions[i2 as usize] - p0)
+}
+
+/// Smooth vertex normals: at each vertex, the average of the unit normals of
+/// ALL adjacent triangles, each weighted by the triangle's angle at that vertex
+/// (Thürmer and Wüthrich's angle weighting: independent of how a surface is
+/// split into triangles).
+///
+/// Vertices at bit-identical positions share one normal, so a mesh whose
+/// vertices were split (e.g. by OBJ texture seams) still shades smoothly.
+/// A vertex with no non-degenerate neighbour gets the zero vector.
+pub fn vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
+    // One slot per distinct position.
+    let mut slot_of_position: HashMap<[u32; 3], usize> = HashMap::with_capacity(positions.len());
+    let slots: Vec<usize> = positions
+        .iter()
+        .map(|p| {
+            let next = slot_of_position.len();
+            *slot_of_position
+                .entry(p.to_array().map(f32::to_bits))
+                .or_insert(next)
+        })
+        .collect();
+    let mut sums = vec![Vec3::ZERO; slot_of_position.len()];
+    for &tri in indices {
+        let Some(face) = face_cross(positions, tri).try_normalize() else {
+            continue;
+        };
+        for corner in 0..3 {
+            let here = positions[tri[corner] as usize];
+            let a = positions[tri[(corner + 1) % 3] as usize] - here;
+            let b = positions[tri[(corner + 2) % 3] as usize] - here;
+            sums[slots[tri[corner] as usize]] += a.angle_between(b) * face;
+        }
+    }
+    slots.iter().map(|&s| sums[s].normalize_or_zero()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit square split into two triangles, facing +z.
+    fn square() -> Mesh {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        Mesh::new("square", p, vec![[0, 1, 2], [0, 2, 3]], None, 0)
+    }
+
+    #[test]
+    fn flat_mesh_normals_are_the_face_normal() {
+        let m = square();
+        assert!(m.normals.iter().all(|n| n.abs_diff_eq(Vec3::Z, 1e-6)));
+        assert!(m.shading_normal(1, 0.3, 0.3).abs_diff_eq(Vec3::Z, 1e-6));
+    }
+
+    #[test]
+    fn shading_normal_blends_with_embree_weights() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let n = vec![Vec3::Z, Vec3::X, Vec3::Y];
+        let m = Mesh::new("tri", p, vec![[0, 1, 2]], Some(n), 0);
+        // Weights (1-u-v, u, v): u weights vertex 1, v weights vertex 2.
+        assert!(m.shading_normal(0, 1.0, 0.0).abs_diff_eq(Vec3::X, 1e-6));
+        assert!(m.shading_normal(0, 0.0, 1.0).abs_diff_eq(Vec3::Y, 1e-6));
+        assert!(m.shading_normal(0, 0.0, 0.0).abs_diff_eq(Vec3::Z, 1e-6));
+        let mid = m.shading_normal(0, 0.5, 0.5);
+        assert!(mid.abs_diff_eq(Vec3::new(1.0, 1.0, 0.0).normalize(), 1e-6));
+    }
+
+    #[test]
+    fn angle_weighting_ignores_how_a_face_is_split() {
+        // A corner of a cube: one +x face as 1 triangle, one +y face as 2, one
+        // +z face as 3. Angle weighting gives the symmetric diagonal anyway.
+        let o = Vec3::ZERO;
+        let p = vec![
+            o,
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.5, 1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+        ];
+        // Face in the x=0 plane (normal -x), one triangle: o, z, y.
+        // Face in the y=0 plane (normal -y), two triangles: o, x, xz and o, xz, z.
+        // Face in the z=0 plane (normal -z), three triangles: o, y, hy; o, hy, xy; o, xy, x.
+        let tris = vec![
+            [0, 2, 1],
+            [0, 3, 4],
+            [0, 4, 2],
+            [0, 1, 5],
+            [0, 5, 6],
+            [0, 6, 3],
+        ];
+        let n = vertex_normals(&p, &tris)[0];
+        assert!(
+            n.abs_diff_eq(-Vec3::ONE.normalize(), 1e-5),
+            "corner normal {n}"
+        );
+    }
+
+    #[test]
+    fn split_vertices_at_one_position_share_a_normal() {
+        // Two triangles folded along the x axis, with the shared edge duplicated.
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ZERO, Vec3::Z, Vec3::X];
+        let tris = vec![[0, 1, 2], [3, 4, 5]];
+        let n = vertex_normals(&p, &tris);
+        assert!(n[0].abs_diff_eq(n[3], 1e-6));
+        assert!(n[1].abs_diff_eq(n[5], 1e-6));
+    }
+
+    #[test]
+    fn degenerate_triangles_are_dropped() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::X * 2.0];
+        let m = Mesh::new("d", p, vec![[0, 1, 2], [0, 1, 3], [1, 1, 2]], None, 0);
+        assert_eq!(m.indices, vec![[0, 1, 2]]);
+    }
+
+    #[test]
+    fn transform_moves_points_and_keeps_normals_perpendicular() {
+        let mut m = square();
+        // Non-uniform scale then a rotation: normals need the inverse transpose.
+        let tilt = Mat4::from_rotation_x(0.7) * Mat4::from_scale(Vec3::new(3.0, 1.0, 0.2));
+        let mut sloped = Mesh::new(
+            "slope",
+            vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, 1.0)],
+            vec![[0, 1, 2]],
+            None,
+            0,
+        );
+        sloped.transform(&tilt);
+        let face = sloped.face_normal(0);
+        assert!(
+            sloped.normals.iter().all(|n| n.abs_diff_eq(face, 1e-5)),
+            "{:?} vs {face}",
+            sloped.normals
+        );
+        m.transform(&Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0)));
+        assert_eq!(m.bounds().min.z, 5.0);
+    }
+
+    #[test]
+    fn mirroring_keeps_the_outside_counter_clockwise() {
+        let mut m = square();
+        m.transform(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+        // Normals still +z, and the winding agrees with them.
+        assert!(m.face_normal(0).abs_diff_eq(Vec3::Z, 1e-6));
+        assert!(m.normals[0].abs_diff_eq(Vec3::Z, 1e-6));
+    }
+}

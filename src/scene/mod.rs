@@ -1,0 +1,385 @@
+//! Scenes: the TOML scene file turned into meshes, materials, lights and a
+//! camera, with every user mistake reported as an [`Error`] that names the
+//! file and line.
+
+mod file;
+pub mod mesh;
+pub mod obj;
+pub mod shapes;
+pub mod teapot;
+mod values;
+
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::{EulerRot, Mat4, Quat, Vec3};
+use toml::Spanned;
+
+use crate::accel::embree::TriangleView;
+use crate::error::{Error, Location, Result};
+use crate::light::Light;
+use crate::material::Material;
+use crate::render::camera::Camera;
+pub use mesh::{Bounds, Mesh};
+
+/// Image size and sampling, as the scene file sets them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ImageSettings {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Samples per pixel.
+    pub samples: u32,
+}
+
+/// Everything needed to render: geometry, materials, lights, camera.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The file it was read from.
+    pub path: PathBuf,
+    /// The camera.
+    pub camera: Camera,
+    /// Image settings.
+    pub image: ImageSettings,
+    /// Materials; meshes refer to them by index.
+    pub materials: Vec<Material>,
+    /// Light sources.
+    pub lights: Vec<Light>,
+    /// Triangle meshes; a mesh's index is its Embree geometry id.
+    pub meshes: Vec<Mesh>,
+    /// Things worth telling the user that are not errors.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Reads and validates a scene file. Relative paths inside it (OBJ and
+    /// `.bpt` files) are taken relative to the file's folder.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Scene::from_toml(&text, path)
+    }
+
+    /// Parses scene text; `path` names it in errors and anchors relative paths.
+    pub fn from_toml(text: &str, path: &Path) -> Result<Scene> {
+        let parsed: file::SceneFile = toml::from_str(text).map_err(|e| {
+            let location = e.span().map(|s| Location::from_offset(text, s.start));
+            Error::Input {
+                path: path.to_path_buf(),
+                location,
+                message: e.message().trim_end().to_string(),
+            }
+        })?;
+        Builder {
+            text,
+            path,
+            warnings: Vec::new(),
+        }
+        .build(parsed)
+    }
+
+    /// All meshes as an intersector reads them, in geometry-id order.
+    pub fn triangle_views(&self) -> Vec<TriangleView<'_>> {
+        self.meshes.iter().map(Mesh::view).collect()
+    }
+
+    /// Total triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.indices.len()).sum()
+    }
+
+    /// Total vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.positions.len()).sum()
+    }
+
+    /// Bounding box of all geometry.
+    pub fn bounds(&self) -> Bounds {
+        self.meshes
+            .iter()
+            .fold(Bounds::EMPTY, |b, m| b.union(m.bounds()))
+    }
+}
+
+/// Turns a parsed file into a [`Scene`], keeping the text for error locations.
+struct Builder<'a> {
+    text: &'a str,
+    path: &'a Path,
+    warnings: Vec<String>,
+}
+
+impl Builder<'_> {
+    fn error_at(&self, span: Range<usize>, message: impl Into<String>) -> Error {
+        Error::input_at(
+            self.path,
+            Location::from_offset(self.text, span.start),
+            message,
+        )
+    }
+
+    fn build(mut self, f: file::SceneFile) -> Result<Scene> {
+        let cam = f.camera;
+        let camera = Camera::new(cam.eye.0, cam.look_at.0, cam.up.0, cam.fov.0)
+            .map_err(|msg| Error::input(self.path, format!("[camera]: {msg}")))?;
+        let image = ImageSettings {
+            width: f.image.width,
+            height: f.image.height,
+            samples: f.image.samples,
+        };
+
+        let mut materials = Vec::with_capacity(f.materials.len());
+        let mut material_ids = HashMap::new();
+        for (name, section) in &f.materials {
+            let material = self.material(name, section)?;
+            material_ids.insert(name.clone(), materials.len());
+            materials.push(material);
+        }
+
+        let mut lights = Vec::new();
+        for l in &f.point_light {
+            lights.push(Light::Point {
+                position: l.position.0,
+                power: l.power.0,
+            });
+        }
+        for l in &f.area_light {
+            if l.u.get_ref().0.cross(l.v.0) == Vec3::ZERO {
+                return Err(self.error_at(
+                    l.u.span(),
+                    "the area light's edges u and v are zero or parallel",
+                ));
+            }
+            lights.push(Light::Area {
+                center: l.center.0,
+                u: l.u.get_ref().0,
+                v: l.v.0,
+                power: l.power.0,
+            });
+        }
+        for l in &f.spot_light {
+            lights.push(self.spot_light(l)?);
+        }
+
+        let lookup = |name: &Spanned<String>| -> Result<usize> {
+            material_ids.get(name.get_ref()).copied().ok_or_else(|| {
+                let known: Vec<&str> = f.materials.keys().map(String::as_str).collect();
+                let hint = if known.is_empty() {
+                    "the file defines no materials; add a [materials.NAME] table".to_string()
+                } else {
+                    format!("defined materials: {}", known.join(", "))
+                };
+                self.error_at(
+                    name.span(),
+                    format!("unknown material `{}`; {hint}", name.get_ref()),
+                )
+            })
+        };
+
+        let mut meshes = Vec::new();
+        let mut obj_warnings = Vec::new();
+        for (i, s) in f.sphere.iter().enumerate() {
+            let mut m = shapes::sphere(
+                &format!("sphere #{}", i + 1),
+                s.center.0,
+                s.radius.0,
+                s.subdivisions,
+                lookup(&s.material)?,
+            );
+            m.transform(&transform_matrix(&s.transform));
+            meshes.push(m);
+        }
+        for (i, q) in f.quad.iter().enumerate() {
+            if q.u.get_ref().0.cross(q.v.0) == Vec3::ZERO {
+                return Err(
+                    self.error_at(q.u.span(), "the quad's edges u and v are zero or parallel")
+                );
+            }
+            let mut m = shapes::quad(
+                &format!("quad #{}", i + 1),
+                q.center.0,
+                q.u.get_ref().0,
+                q.v.0,
+                lookup(&q.material)?,
+            );
+            m.transform(&transform_matrix(&q.transform));
+            meshes.push(m);
+        }
+        for (i, b) in f.cuboid.iter().enumerate() {
+            let half = 0.5 * b.size.0;
+            let mut m = shapes::cuboid(
+                &format!("box #{}", i + 1),
+                b.center.0 - half,
+                b.center.0 + half,
+                lookup(&b.material)?,
+            );
+            m.transform(&transform_matrix(&b.transform));
+            meshes.push(m);
+        }
+        for (i, t) in f.teapot.iter().enumerate() {
+            let patches = match &t.file {
+                None => teapot::parse_bpt(teapot::TEAPOT_BPT, Path::new("scenes/data/teapot.bpt"))?,
+                Some(file) => {
+                    let bpt_path = self.relative(file);
+                    let text =
+                        std::fs::read_to_string(&bpt_path).map_err(|e| Error::io(&bpt_path, e))?;
+                    teapot::parse_bpt(&text, &bpt_path)?
+                }
+            };
+            let (positions, indices) = teapot::tessellate(&patches, t.subdivisions as usize);
+            let mut m = Mesh::new(
+                format!("teapot #{}", i + 1),
+                positions,
+                indices,
+                None,
+                lookup(&t.material)?,
+            );
+            // The data is z-up; scenes are y-up: (x, y, z) -> (x, z, -y).
+            m.transform(
+                &(transform_matrix(&t.transform)
+                    * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2)),
+            );
+            meshes.push(m);
+        }
+        for m in &f.mesh {
+            let obj_path = self.relative(m.file.get_ref());
+            let material = m.material.as_ref().map(&lookup).transpose()?;
+            let contents =
+                obj::load(&obj_path, material, materials.len()).map_err(|e| match e {
+                    Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+                        self.error_at(
+                            m.file.span(),
+                            format!(
+                                "mesh file `{}` not found (paths are relative to the scene file)",
+                                obj_path.display()
+                            ),
+                        )
+                    }
+                    other => other,
+                })?;
+            materials.extend(contents.materials);
+            obj_warnings.extend(contents.warnings);
+            let matrix = transform_matrix(&m.transform);
+            for mut mesh in contents.meshes {
+                mesh.transform(&matrix);
+                meshes.push(mesh);
+            }
+        }
+
+        self.warnings.extend(obj_warnings);
+        let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
+        if triangles == 0 {
+            return Err(Error::input(
+                self.path,
+                "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[teapot]] or [[mesh]]",
+            ));
+        }
+        if let Some(m) = meshes
+            .iter()
+            .find(|m| !m.positions.iter().all(|p| p.is_finite()))
+        {
+            return Err(Error::input(
+                self.path,
+                format!("{}: its transform makes vertices non-finite", m.name),
+            ));
+        }
+        if lights.is_empty() {
+            self.warnings
+                .push("the scene has no lights; lit renders will be black".into());
+        }
+        Ok(Scene {
+            path: self.path.to_path_buf(),
+            camera,
+            image,
+            materials,
+            lights,
+            meshes,
+            warnings: self.warnings,
+        })
+    }
+
+    fn material(&self, name: &str, section: &Spanned<file::MaterialSection>) -> Result<Material> {
+        let s = section.get_ref();
+        let material = Material {
+            name: name.to_string(),
+            diffuse: s.diffuse.map_or(Vec3::ZERO, |c| c.0),
+            specular: s.specular.map_or(Vec3::ZERO, |c| c.0),
+            phong_exponent: s.phong_exponent.map_or(1.0, |p| p.0),
+            mirror: s.mirror.map_or(Vec3::ZERO, |c| c.0),
+            transmittance: s.transmittance.map_or(Vec3::ZERO, |c| c.0),
+            ior: s.ior.map_or(1.5, |n| n.0),
+        };
+        material
+            .check_energy()
+            .map_err(|msg| self.error_at(section.span(), format!("material `{name}`: {msg}")))?;
+        Ok(material)
+    }
+
+    fn spot_light(&self, l: &file::SpotLightSection) -> Result<Light> {
+        let direction = l.direction.get_ref().0.try_normalize().ok_or_else(|| {
+            self.error_at(
+                l.direction.span(),
+                "the spot light's direction is the zero vector",
+            )
+        })?;
+        let cone = l.cone_angle.get_ref().0;
+        if cone > 180.0 {
+            return Err(self.error_at(
+                l.cone_angle.span(),
+                format!("cone_angle is a half-angle of at most 180 degrees, found {cone}"),
+            ));
+        }
+        let falloff = match &l.falloff_start {
+            None => 0.8 * cone,
+            Some(f) if (0.0..=cone).contains(&f.get_ref().0) => f.get_ref().0,
+            Some(f) => {
+                return Err(self.error_at(
+                    f.span(),
+                    format!(
+                        "falloff_start must lie between 0 and cone_angle ({cone}), found {}",
+                        f.get_ref().0
+                    ),
+                ))
+            }
+        };
+        Ok(Light::Spot {
+            position: l.position.0,
+            direction,
+            cone_angle: cone.to_radians(),
+            falloff_start: falloff.to_radians(),
+            power: l.power.0,
+        })
+    }
+
+    fn relative(&self, file: &str) -> PathBuf {
+        self.path.parent().unwrap_or(Path::new(".")).join(file)
+    }
+}
+
+/// Scale, then rotate about x, y, z (degrees), then translate.
+fn transform_matrix(t: &file::TransformSection) -> Mat4 {
+    let scale = t.scale.map_or(Vec3::ONE, |s| s.0);
+    let [rx, ry, rz] = t
+        .rotate
+        .map_or(Vec3::ZERO, |r| r.0)
+        .to_array()
+        .map(f32::to_radians);
+    let rotation = Quat::from_euler(EulerRot::ZYX, rz, ry, rx);
+    Mat4::from_scale_rotation_translation(scale, rotation, t.translate.map_or(Vec3::ZERO, |v| v.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotation_order_is_x_then_y_then_z() {
+        let t = file::TransformSection {
+            rotate: Some(values::Point(Vec3::new(90.0, 90.0, 0.0))),
+            ..Default::default()
+        };
+        // X by 90 takes +y to +z; then Y by 90 takes +z to +x.
+        let p = transform_matrix(&t).transform_point3(Vec3::Y);
+        assert!(p.abs_diff_eq(Vec3::X, 1e-6), "{p}");
+    }
+}

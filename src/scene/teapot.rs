@@ -1,0 +1,225 @@
+//! Bicubic Bezier patches (`.bpt` files) and their tessellation: the Utah
+//! teapot (Newell 1975), whose data lives in `scenes/data/teapot.bpt`.
+//!
+//! Format: a patch count, then per patch its degrees (`3 3`) and 16 control
+//! points row by row, all whitespace-separated. The surface is
+//! `S(u, v) = sum_r sum_c B_r(v) B_c(u) P[4r + c]`.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::error::{Error, Location, Result};
+
+/// The teapot's patch data, built in so scenes can use it from anywhere.
+pub const TEAPOT_BPT: &str = include_str!("../../scenes/data/teapot.bpt");
+
+/// One bicubic Bezier patch: 16 control points, row by row (`P[4r + c]`).
+pub type Patch = [Vec3; 16];
+
+/// Reads `.bpt` text. `path` only names the file in error messages.
+pub fn parse_bpt(text: &str, path: &Path) -> Result<Vec<Patch>> {
+    let mut tokens = Tokens::new(text, path);
+    let count = tokens.integer("the patch count")?;
+    if count == 0 {
+        return Err(
+            tokens.error_here("the file declares 0 patches; a .bpt file needs at least one")
+        );
+    }
+    let mut patches = Vec::with_capacity(count.min(1 << 20));
+    for patch in 1..=count {
+        let (du, dv) = (
+            tokens.integer("a patch degree")?,
+            tokens.integer("a patch degree")?,
+        );
+        if (du, dv) != (3, 3) {
+            return Err(tokens.error_at_last(format!(
+                "patch {patch} has degrees {du} {dv}; only bicubic patches (3 3) are supported"
+            )));
+        }
+        let mut points = [Vec3::ZERO; 16];
+        for p in &mut points {
+            *p = Vec3::new(tokens.number()?, tokens.number()?, tokens.number()?);
+        }
+        patches.push(points);
+    }
+    if let Some((offset, extra)) = tokens.next_raw() {
+        return Err(Error::input_at(
+            path,
+            Location::from_offset(text, offset),
+            format!("unexpected `{extra}` after the {count} declared patches"),
+        ));
+    }
+    Ok(patches)
+}
+
+/// Whitespace-separated tokens with their byte offsets, for error locations.
+struct Tokens<'a> {
+    text: &'a str,
+    path: &'a Path,
+    iter: std::iter::Peekable<Box<dyn Iterator<Item = (usize, &'a str)> + 'a>>,
+    last: usize,
+}
+
+impl<'a> Tokens<'a> {
+    fn new(text: &'a str, path: &'a Path) -> Self {
+        let iter: Box<dyn Iterator<Item = (usize, &'a str)>> = Box::new(
+            text.split_ascii_whitespace()
+                .map(move |t| (t.as_ptr() as usize - text.as_ptr() as usize, t)),
+        );
+        Tokens {
+            text,
+            path,
+            iter: iter.peekable(),
+            last: 0,
+        }
+    }
+
+    fn next_raw(&mut self) -> Option<(usize, &'a str)> {
+        let next = self.iter.next()?;
+        self.last = next.0;
+        Some(next)
+    }
+
+    fn next_token(&mut self, what: &str) -> Result<&'a str> {
+        match self.next_raw() {
+            Some((_, t)) => Ok(t),
+            None => Err(self.error_here(format!("the file ends where {what} was expected"))),
+        }
+    }
+
+    fn integer(&mut self, what: &str) -> Result<usize> {
+        let token = self.next_token(what)?;
+        token.parse().map_err(|_| {
+            self.error_at_last(format!("expected {what} (a whole number), found `{token}`"))
+        })
+    }
+
+    fn number(&mut self) -> Result<f32> {
+        let token = self.next_token("a control point coordinate")?;
+        match token.parse::<f32>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            _ => Err(self.error_at_last(format!("expected a finite coordinate, found `{token}`"))),
+        }
+    }
+
+    fn error_at_last(&self, message: impl Into<String>) -> Error {
+        Error::input_at(
+            self.path,
+            Location::from_offset(self.text, self.last),
+            message,
+        )
+    }
+
+    fn error_here(&self, message: impl Into<String>) -> Error {
+        Error::input_at(
+            self.path,
+            Location::from_offset(self.text, self.text.trim_end().len()),
+            message,
+        )
+    }
+}
+
+/// Cubic Bernstein weights at `t = i / n`, computed so that the weights at
+/// `n - i` are exactly those at `i` reversed (floating-point products are
+/// commutative but not associative, so the grouping below matters).
+fn bernstein(i: usize, n: usize) -> [f32; 4] {
+    let t = i as f32 / n as f32;
+    let s = (n - i) as f32 / n as f32;
+    [
+        (s * s) * s,
+        (s * s) * (3.0 * t),
+        (3.0 * s) * (t * t),
+        (t * t) * t,
+    ]
+}
+
+/// `w0 p0 + w1 p1 + w2 p2 + w3 p3`, summed in an order that is the same for
+/// the reversed sequence: a curve shared by two patches evaluates to
+/// bit-identical points from either side, in either direction.
+fn blend(w: [f32; 4], p: [Vec3; 4]) -> Vec3 {
+    (w[0] * p[0] + w[3] * p[3]) + (w[1] * p[1] + w[2] * p[2])
+}
+
+/// Tessellates patches into `level x level` quads each (two triangles per
+/// quad), welding vertices at bit-identical positions so seams between
+/// patches are shared edges. Triangles collapsed at a pole (a degenerate
+/// control row) come out with repeated indices; [`super::mesh::Mesh::new`]
+/// drops them. The counter-clockwise side is the `dS/du x dS/dv` side.
+pub fn tessellate(patches: &[Patch], level: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let level = level.max(1);
+    let weights: Vec<[f32; 4]> = (0..=level).map(|i| bernstein(i, level)).collect();
+    let mut index_of: HashMap<[u32; 3], u32> = HashMap::new();
+    let mut positions = Vec::new();
+    let mut indices = Vec::with_capacity(patches.len() * level * level * 2);
+    for patch in patches {
+        let mut grid = Vec::with_capacity((level + 1) * (level + 1));
+        for wv in &weights {
+            for wu in &weights {
+                let rows = [0, 1, 2, 3].map(|r| {
+                    blend(
+                        *wu,
+                        [
+                            patch[4 * r],
+                            patch[4 * r + 1],
+                            patch[4 * r + 2],
+                            patch[4 * r + 3],
+                        ],
+                    )
+                });
+                // Adding +0.0 turns -0.0 into +0.0 so both weld together.
+                let p = blend(*wv, rows) + Vec3::ZERO;
+                let key = p.to_array().map(f32::to_bits);
+                let next = positions.len() as u32;
+                grid.push(*index_of.entry(key).or_insert_with(|| {
+                    positions.push(p);
+                    next
+                }));
+            }
+        }
+        let at = |i: usize, j: usize| grid[j * (level + 1) + i];
+        for j in 0..level {
+            for i in 0..level {
+                let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                indices.push([a, b, c]);
+                indices.push([a, c, d]);
+            }
+        }
+    }
+    (positions, indices)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bernstein_weights_sum_to_one_and_mirror_exactly() {
+        for n in [1, 3, 7, 16] {
+            for i in 0..=n {
+                let w = bernstein(i, n);
+                assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+                let mut m = bernstein(n - i, n);
+                m.reverse();
+                assert_eq!(w, m);
+            }
+        }
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let p = Path::new("t.bpt");
+        let err = parse_bpt("1\n3 3\n0 0 0\n1 x 0\n", p)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("t.bpt:4:3:") && err.contains("`x`"),
+            "{err}"
+        );
+        let err = parse_bpt("1\n3 3\n0 0 0\n", p).unwrap_err().to_string();
+        assert!(err.contains("file ends"), "{err}");
+        let err = parse_bpt("1\n2 3\n", p).unwrap_err().to_string();
+        assert!(err.contains("only bicubic"), "{err}");
+    }
+}

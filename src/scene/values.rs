@@ -1,0 +1,173 @@
+//! Validating value types for the scene file. Each rejects bad numbers while
+//! the file is parsed, so the error carries the exact line and column.
+
+use std::fmt;
+
+use glam::Vec3;
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use serde::Deserialize;
+
+/// Reads a number or a `[x, y, z]` array (a number means all three equal),
+/// each checked by `check`, which returns what is wrong.
+fn number_or_triple<'de, D: Deserializer<'de>>(
+    d: D,
+    allow_single: bool,
+    check: fn(f64) -> Option<&'static str>,
+) -> Result<Vec3, D::Error> {
+    struct V {
+        allow_single: bool,
+        check: fn(f64) -> Option<&'static str>,
+    }
+    impl V {
+        fn checked<E: de::Error>(&self, x: f64) -> Result<f32, E> {
+            let narrow = x as f32;
+            let x = if x.is_finite() && !narrow.is_finite() {
+                f64::INFINITY
+            } else {
+                x
+            };
+            match (self.check)(x) {
+                None => Ok(narrow),
+                Some(what) => Err(E::custom(format!("{what}, found {x}"))),
+            }
+        }
+    }
+    impl<'de> Visitor<'de> for V {
+        type Value = Vec3;
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            if self.allow_single {
+                f.write_str("a number or an array of 3 numbers")
+            } else {
+                f.write_str("an array of 3 numbers [x, y, z]")
+            }
+        }
+        fn visit_f64<E: de::Error>(self, x: f64) -> Result<Vec3, E> {
+            if !self.allow_single {
+                return Err(E::invalid_type(de::Unexpected::Float(x), &self));
+            }
+            Ok(Vec3::splat(self.checked(x)?))
+        }
+        fn visit_i64<E: de::Error>(self, x: i64) -> Result<Vec3, E> {
+            if !self.allow_single {
+                return Err(E::invalid_type(de::Unexpected::Signed(x), &self));
+            }
+            Ok(Vec3::splat(self.checked(x as f64)?))
+        }
+        fn visit_u64<E: de::Error>(self, x: u64) -> Result<Vec3, E> {
+            self.visit_i64(x.min(i64::MAX as u64) as i64)
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec3, A::Error> {
+            let mut out = [0.0f32; 3];
+            for (i, slot) in out.iter_mut().enumerate() {
+                let x: f64 = seq
+                    .next_element()?
+                    .ok_or_else(|| de::Error::invalid_length(i, &self))?;
+                *slot = self.checked(x)?;
+            }
+            if seq.next_element::<de::IgnoredAny>()?.is_some() {
+                return Err(de::Error::invalid_length(4, &self));
+            }
+            Ok(Vec3::from_array(out))
+        }
+    }
+    d.deserialize_any(V {
+        allow_single,
+        check,
+    })
+}
+
+fn finite(x: f64) -> Option<&'static str> {
+    (!x.is_finite()).then_some("expected a finite number")
+}
+
+fn non_negative(x: f64) -> Option<&'static str> {
+    finite(x).or((x < 0.0).then_some("expected a number that is not negative"))
+}
+
+fn positive(x: f64) -> Option<&'static str> {
+    finite(x).or((x <= 0.0).then_some("expected a number greater than 0"))
+}
+
+fn fraction(x: f64) -> Option<&'static str> {
+    finite(x).or((!(0.0..=1.0).contains(&x)).then_some("expected a reflectance between 0 and 1"))
+}
+
+fn non_zero(x: f64) -> Option<&'static str> {
+    finite(x).or((x == 0.0).then_some("expected a non-zero scale (zero flattens the object)"))
+}
+
+macro_rules! vector_type {
+    ($(#[$doc:meta])* $name:ident, single: $single:expr, $check:ident) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, Copy, PartialEq)]
+        pub struct $name(pub Vec3);
+        impl<'de> Deserialize<'de> for $name {
+            fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                number_or_triple(d, $single, $check).map($name)
+            }
+        }
+    };
+}
+
+vector_type!(
+    /// A point or direction `[x, y, z]` of finite numbers.
+    Point, single: false, finite
+);
+vector_type!(
+    /// A reflectance: one number or `[r, g, b]`, each in `[0, 1]`.
+    Reflectance, single: true, fraction
+);
+vector_type!(
+    /// A power in watts: one number or `[r, g, b]`, none negative.
+    Power, single: true, non_negative
+);
+vector_type!(
+    /// A scale: one number (uniform) or `[x, y, z]`, none zero.
+    Scale, single: true, non_zero
+);
+vector_type!(
+    /// A size: one number or `[x, y, z]`, each greater than 0.
+    Size, single: true, positive
+);
+
+/// A single number checked by one of the rules above.
+fn scalar<'de, D: Deserializer<'de>>(
+    d: D,
+    check: fn(f64) -> Option<&'static str>,
+) -> Result<f32, D::Error> {
+    let x = f64::deserialize(d)?;
+    match check(x) {
+        None if (x as f32).is_finite() => Ok(x as f32),
+        None => Err(de::Error::custom(format!("{x} is too large"))),
+        Some(what) => Err(de::Error::custom(format!("{what}, found {x}"))),
+    }
+}
+
+/// A finite number.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Finite(pub f32);
+impl<'de> Deserialize<'de> for Finite {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        scalar(d, finite).map(Finite)
+    }
+}
+
+/// A finite number greater than zero.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Positive(pub f32);
+impl<'de> Deserialize<'de> for Positive {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        scalar(d, positive).map(Positive)
+    }
+}
+
+/// A whole number in `min..=max`, with the range named in the error.
+pub fn whole_number<'de, D: Deserializer<'de>>(d: D, min: u32, max: u32) -> Result<u32, D::Error> {
+    let n = i64::deserialize(d)?;
+    if n < min as i64 || n > max as i64 {
+        return Err(de::Error::custom(format!(
+            "expected a whole number from {min} to {max}, found {n}"
+        )));
+    }
+    Ok(n as u32)
+}
