@@ -8,11 +8,12 @@ use std::env;
 use std::path::{Path, PathBuf};
 
 const INSTALL_HINT: &str = "install it with `sudo apt-get install libembree-dev libclang-dev` \
-(or run `make deps`), or point EMBREE_DIR at an Embree 3 installation";
+(or `./dev.sh deps`), or point EMBREE_DIR at an Embree 3 installation";
 
+/// Stops the build with one sentence, shown by cargo as an error (no backtrace).
 fn fail(message: &str) -> ! {
-    eprintln!("\nerror: {message}\n");
-    panic!("{message}");
+    println!("cargo::error={message}");
+    std::process::exit(1);
 }
 
 fn system_include_dirs() -> Vec<PathBuf> {

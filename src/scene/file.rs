@@ -41,6 +41,8 @@ pub struct SceneFile {
     #[serde(default, rename = "box")]
     pub cuboid: Vec<BoxSection>,
     #[serde(default)]
+    pub ring: Vec<RingSection>,
+    #[serde(default)]
     pub teapot: Vec<TeapotSection>,
     #[serde(default)]
     pub mesh: Vec<MeshSection>,
@@ -199,6 +201,29 @@ pub struct BoxSection {
     pub material: Spanned<String>,
     #[serde(default)]
     pub transform: TransformSection,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RingSection {
+    /// Centre of the ring's bottom face.
+    pub base: Point,
+    pub inner_radius: Positive,
+    pub outer_radius: Spanned<Positive>,
+    pub height: Positive,
+    #[serde(default = "default_ring_segments", deserialize_with = "ring_segments")]
+    pub segments: u32,
+    pub material: Spanned<String>,
+    #[serde(default)]
+    pub transform: TransformSection,
+}
+
+fn default_ring_segments() -> u32 {
+    128
+}
+
+fn ring_segments<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 3, 1 << 20)
 }
 
 #[derive(Debug, Deserialize)]

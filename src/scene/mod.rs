@@ -68,7 +68,8 @@ impl Scene {
             Error::Input {
                 path: path.to_path_buf(),
                 location,
-                message: e.message().trim_end().to_string(),
+                // toml's messages may span lines; keep ours to one.
+                message: e.message().trim_end().replace('\n', "; "),
             }
         })?;
         Builder {
@@ -216,6 +217,27 @@ impl Builder<'_> {
             m.transform(&transform_matrix(&b.transform));
             meshes.push(m);
         }
+        for (i, r) in f.ring.iter().enumerate() {
+            let (inner, outer) = (r.inner_radius.0, r.outer_radius.get_ref().0);
+            if inner >= outer {
+                return Err(self.error_at(
+                    r.outer_radius.span(),
+                    format!("outer_radius ({outer}) must be larger than inner_radius ({inner})"),
+                ));
+            }
+            let name = format!("ring #{}", i + 1);
+            let mut m = shapes::ring(
+                &name,
+                r.base.0,
+                inner,
+                outer,
+                r.height.0,
+                r.segments,
+                lookup(&r.material)?,
+            );
+            m.transform(&transform_matrix(&r.transform));
+            meshes.push(m);
+        }
         for (i, t) in f.teapot.iter().enumerate() {
             let patches = match &t.file {
                 None => teapot::parse_bpt(teapot::TEAPOT_BPT, Path::new("scenes/data/teapot.bpt"))?,
@@ -246,15 +268,14 @@ impl Builder<'_> {
             let material = m.material.as_ref().map(&lookup).transpose()?;
             let contents =
                 obj::load(&obj_path, material, materials.len()).map_err(|e| match e {
-                    Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
-                        self.error_at(
+                    Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self
+                        .error_at(
                             m.file.span(),
                             format!(
                                 "mesh file `{}` not found (paths are relative to the scene file)",
                                 obj_path.display()
                             ),
-                        )
-                    }
+                        ),
                     other => other,
                 })?;
             materials.extend(contents.materials);
@@ -271,7 +292,7 @@ impl Builder<'_> {
         if triangles == 0 {
             return Err(Error::input(
                 self.path,
-                "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[teapot]] or [[mesh]]",
+                "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[ring]], [[teapot]] or [[mesh]]",
             ));
         }
         if let Some(m) = meshes

@@ -112,6 +112,61 @@ pub fn cuboid(name: &str, min: Vec3, max: Vec3, material: usize) -> Mesh {
     Mesh::new(name, positions, indices, Some(normals), material)
 }
 
+/// A closed thick-walled ring (a napkin ring, or a cup without a bottom):
+/// the solid between two coaxial cylinders of radii `inner < outer`, from
+/// `base` up `height` along +y. Walls are smooth (`segments` around), the
+/// flat top and bottom annuli keep sharp edges. A mirror ring under a low
+/// light focuses a cardioid caustic on the floor inside it.
+pub fn ring(
+    name: &str,
+    base: Vec3,
+    inner: f32,
+    outer: f32,
+    height: f32,
+    segments: u32,
+    material: usize,
+) -> Mesh {
+    let segments = segments.max(3);
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut indices = Vec::new();
+    let around = |k: u32| {
+        let a = std::f32::consts::TAU * k as f32 / segments as f32;
+        Vec3::new(a.cos(), 0.0, -a.sin())
+    };
+    let up = Vec3::Y * height;
+    // Each band is a strip of quads between two circles (bottom edge a, top edge b).
+    let mut band = |a: &dyn Fn(u32) -> Vec3, b: &dyn Fn(u32) -> Vec3, n: &dyn Fn(u32) -> Vec3| {
+        let start = positions.len() as u32;
+        for k in 0..segments {
+            positions.extend([base + a(k), base + b(k)]);
+            normals.extend([n(k), n(k)]);
+        }
+        for k in 0..segments {
+            let (a0, b0) = (start + 2 * k, start + 2 * k + 1);
+            let (a1, b1) = (
+                start + 2 * ((k + 1) % segments),
+                start + 2 * ((k + 1) % segments) + 1,
+            );
+            indices.extend([[a0, a1, b1], [a0, b1, b0]]);
+        }
+    };
+    // Counter-clockwise seen from outside: outer wall faces out, inner wall in.
+    band(&|k| outer * around(k), &|k| outer * around(k) + up, &around);
+    band(&|k| inner * around(k) + up, &|k| inner * around(k), &|k| {
+        -around(k)
+    });
+    band(
+        &|k| outer * around(k) + up,
+        &|k| inner * around(k) + up,
+        &|_| Vec3::Y,
+    );
+    band(&|k| inner * around(k), &|k| outer * around(k), &|_| {
+        -Vec3::Y
+    });
+    Mesh::new(name, positions, indices, Some(normals), material)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -138,6 +193,39 @@ mod tests {
             assert!(b.shading_normal(prim, 0.2, 0.2).abs_diff_eq(n, 1e-6));
         }
         assert_eq!(b.bounds().max, Vec3::new(1.0, 2.0, 3.0));
+    }
+
+    #[test]
+    fn ring_is_closed_and_faces_outward() {
+        let r = ring("r", Vec3::ZERO, 0.8, 1.0, 0.5, 48, 0);
+        assert_eq!(r.indices.len(), 4 * 2 * 48);
+        // Outward: each face normal points away from the wall's mid-surface
+        // (radius 0.9, height 0.25) on the side its triangle lies.
+        for prim in 0..r.indices.len() as u32 {
+            let [a, b, c] = r.indices[prim as usize].map(|i| r.positions[i as usize]);
+            let centroid = (a + b + c) / 3.0;
+            let radial = Vec3::new(centroid.x, 0.0, centroid.z).normalize();
+            let mid = 0.9 * radial + Vec3::Y * 0.25;
+            assert!(
+                r.face_normal(prim).dot(centroid - mid) > 0.0,
+                "triangle {prim} faces inward"
+            );
+        }
+        // Closed: every edge is shared by exactly two triangles, once each way.
+        let mut directed = std::collections::HashSet::new();
+        let key = |i: u32| r.positions[i as usize].to_array().map(f32::to_bits);
+        for t in &r.indices {
+            for e in 0..3 {
+                assert!(
+                    directed.insert((key(t[e]), key(t[(e + 1) % 3]))),
+                    "edge used twice one way"
+                );
+            }
+        }
+        assert!(
+            directed.iter().all(|(a, b)| directed.contains(&(*b, *a))),
+            "open edge"
+        );
     }
 
     #[test]

@@ -138,7 +138,14 @@ fn bernstein(i: usize, n: usize) -> [f32; 4] {
 /// `w0 p0 + w1 p1 + w2 p2 + w3 p3`, summed in an order that is the same for
 /// the reversed sequence: a curve shared by two patches evaluates to
 /// bit-identical points from either side, in either direction.
+///
+/// A row collapsed to one point (the poles of the knob and the bottom) gives
+/// exactly that point: the weights' sum is 1 only up to rounding, and a pole
+/// smeared over several nearby positions would leave sliver triangles there.
 fn blend(w: [f32; 4], p: [Vec3; 4]) -> Vec3 {
+    if p[1] == p[0] && p[2] == p[0] && p[3] == p[0] {
+        return p[0];
+    }
     (w[0] * p[0] + w[3] * p[3]) + (w[1] * p[1] + w[2] * p[2])
 }
 
