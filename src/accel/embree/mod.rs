@@ -354,6 +354,51 @@ mod tests {
     }
 
     #[test]
+    fn embree_errors_come_back_through_the_callback() {
+        let device = Device::new().unwrap();
+        assert!(device.check().is_ok());
+        // SAFETY: a deliberately invalid geometry type on a live device; Embree
+        // rejects it, returns null and reports through the error callback.
+        let geom = unsafe { ffi::rtcNewGeometry(device.raw, 0xdead) };
+        assert!(geom.is_null());
+        match device.check() {
+            Err(Error::Embree { code, message }) => {
+                eprintln!("{code}: {message}");
+                assert_eq!(code, "RTC_ERROR_UNKNOWN");
+                assert!(message.contains("invalid geometry type"), "{message}");
+            }
+            other => panic!("expected an Embree error, got {other:?}"),
+        }
+        // Reported once, then cleared.
+        assert!(device.check().is_ok());
+    }
+
+    #[test]
+    fn queries_from_many_threads_agree() {
+        use rayon::prelude::*;
+        let (p, i) = unit_triangle();
+        let accel = EmbreeIntersector::build(&[TriangleView {
+            positions: &p,
+            indices: &i,
+        }])
+        .unwrap();
+        let hits: usize = (0..10_000)
+            .into_par_iter()
+            .filter(|k| {
+                // Offsets keep every point off the diagonal edge x + y = 1.
+                let x = (k % 100) as f32 / 100.0 + 0.0025;
+                let y = (k / 100) as f32 / 100.0 + 0.0025;
+                accel
+                    .intersect(&Ray::new(Vec3::new(x, y, 1.0), -Vec3::Z))
+                    .is_some()
+            })
+            .count();
+        // Points of a 100 x 100 grid with x + y < 1, i.e. i + j <= 99.
+        let expected = (0..10_000).filter(|k| (k % 100) + (k / 100) <= 99).count();
+        assert_eq!(hits, expected);
+    }
+
+    #[test]
     fn device_reports_a_3_x_version() {
         assert!(Device::new().unwrap().version().starts_with("3."));
     }

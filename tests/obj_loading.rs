@@ -1,0 +1,106 @@
+//! OBJ files: their normals are used, MTL materials map onto ours, and the
+//! bunny loads as the closed mesh it is.
+
+mod common;
+
+use caustix::scene::Scene;
+use common::{write, QUAD_SCENE};
+use glam::Vec3;
+
+#[test]
+fn mtl_materials_map_onto_ours() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "things.mtl",
+        "newmtl matte\nKd 0.5 0.25 0.125\n\
+         newmtl chrome\nillum 3\nKs 0.9 0.9 0.9\n\
+         newmtl water\nillum 7\nNi 1.33\n\
+         newmtl hot\nKd 0.9 0.9 0.9\nKs 0.6 0.6 0.6\nNs 30\n",
+    );
+    let mut obj = String::from("mtllib things.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for name in ["matte", "chrome", "water", "hot"] {
+        obj += &format!("o {name}\nusemtl {name}\nf 1 2 3\n");
+    }
+    write(dir.path(), "things.obj", &obj);
+    let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"things.obj\"\n");
+    let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+
+    let material_of = |object: &str| {
+        let mesh = scene
+            .meshes
+            .iter()
+            .find(|m| m.name == format!("things.obj:{object}"))
+            .unwrap();
+        &scene.materials[mesh.material]
+    };
+    assert_eq!(material_of("matte").diffuse, Vec3::new(0.5, 0.25, 0.125));
+    assert_eq!(material_of("matte").name, "things.obj:matte");
+    let chrome = material_of("chrome");
+    assert_eq!(
+        (chrome.mirror, chrome.specular),
+        (Vec3::splat(0.9), Vec3::ZERO)
+    );
+    let water = material_of("water");
+    assert_eq!((water.transmittance, water.ior), (Vec3::ONE, 1.33));
+    // 0.9 + 0.6 reflects 1.5x what arrives: scaled to 1, with a warning.
+    let hot = material_of("hot");
+    assert!((hot.total_reflectance() - Vec3::ONE).abs().max_element() < 1e-6);
+    assert!((hot.diffuse.x / hot.specular.x - 1.5).abs() < 1e-6);
+    assert_eq!(hot.phong_exponent, 30.0);
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    assert!(scene.warnings[0].contains("things.obj:hot"));
+}
+
+#[test]
+fn obj_normals_are_used_when_present() {
+    let dir = tempfile::tempdir().unwrap();
+    // A flat triangle in z = 0 whose file normals lean outwards like a dome.
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn -1 -1 1\nvn 1 0 1\nvn 0 1 1\nf 1//1 2//2 3//3\n";
+    write(dir.path(), "dome.obj", obj);
+    let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"dome.obj\"\nmaterial = \"white\"\n");
+    let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+    let mesh = scene.meshes.last().unwrap();
+    assert!(mesh.normals[0].abs_diff_eq(Vec3::new(-1.0, -1.0, 1.0).normalize(), 1e-6));
+    assert!(mesh
+        .shading_normal(0, 1.0, 0.0)
+        .abs_diff_eq(Vec3::new(1.0, 0.0, 1.0).normalize(), 1e-6));
+}
+
+#[test]
+fn bunny_loads_closed_with_outward_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/data/bunny.obj"),
+        dir.path().join("bunny.obj"),
+    )
+    .unwrap();
+    let text = format!(
+        "{QUAD_SCENE}\n[[mesh]]\nfile = \"bunny.obj\"\nmaterial = \"white\"\n\
+         transform = {{ scale = 0.5, translate = [10, 0, 0] }}\n"
+    );
+    let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+    let bunny = scene.meshes.last().unwrap();
+    assert_eq!((bunny.positions.len(), bunny.indices.len()), (1839, 3674));
+    // Signed volume (divergence theorem) is positive for outward winding:
+    // 194.29 in the file's units, times 0.5^3 after the transform.
+    let volume: f32 = bunny
+        .indices
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| bunny.positions[i as usize] - Vec3::new(10.0, 0.0, 0.0));
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum();
+    assert!((volume - 194.29 * 0.125).abs() < 0.05, "volume {volume}");
+    // Smooth normals agree with the faces around them.
+    for (prim, _) in bunny.indices.iter().enumerate() {
+        let face = bunny.face_normal(prim as u32);
+        assert!(
+            bunny
+                .shading_normal(prim as u32, 1.0 / 3.0, 1.0 / 3.0)
+                .dot(face)
+                > 0.0
+        );
+    }
+}
