@@ -17,23 +17,14 @@ fn fail(message: &str) -> ! {
 }
 
 fn system_include_dirs() -> Vec<PathBuf> {
-    ["/usr/include", "/usr/local/include"]
-        .iter()
-        .map(PathBuf::from)
-        .collect()
+    ["/usr/include", "/usr/local/include"].iter().map(PathBuf::from).collect()
 }
 
 fn system_lib_dirs() -> Vec<PathBuf> {
-    [
-        "/usr/lib/x86_64-linux-gnu",
-        "/usr/lib/aarch64-linux-gnu",
-        "/usr/lib64",
-        "/usr/lib",
-        "/usr/local/lib",
-    ]
-    .iter()
-    .map(PathBuf::from)
-    .collect()
+    ["/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib64", "/usr/lib", "/usr/local/lib"]
+        .iter()
+        .map(PathBuf::from)
+        .collect()
 }
 
 fn find_dir(dirs: &[PathBuf], relative: &str) -> Option<PathBuf> {
@@ -47,10 +38,7 @@ fn main() {
     let (include_dirs, lib_dirs) = match env::var_os("EMBREE_DIR") {
         Some(root) => {
             let root = PathBuf::from(root);
-            (
-                vec![root.join("include")],
-                vec![root.join("lib"), root.join("lib64")],
-            )
+            (vec![root.join("include")], vec![root.join("lib"), root.join("lib64")])
         }
         None => (system_include_dirs(), system_lib_dirs()),
     };
@@ -93,9 +81,7 @@ fn main() {
             ))
         });
     let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
-    bindings
-        .write_to_file(out.join("embree3_bindings.rs"))
-        .expect("OUT_DIR is writable");
+    bindings.write_to_file(out.join("embree3_bindings.rs")).expect("OUT_DIR is writable");
 }
 
 /// Whether a libclang shared library can be found where bindgen (clang-sys) looks.
@@ -109,9 +95,7 @@ fn libclang_available() -> bool {
     }
     dirs.iter().any(|d| {
         std::fs::read_dir(d).is_ok_and(|entries| {
-            entries
-                .flatten()
-                .any(|e| e.file_name().to_string_lossy().starts_with("libclang"))
+            entries.flatten().any(|e| e.file_name().to_string_lossy().starts_with("libclang"))
         })
     })
 }

@@ -73,28 +73,17 @@ pub enum Error {
 impl Error {
     /// An input error at a known place.
     pub fn input_at(path: &Path, location: Location, message: impl Into<String>) -> Self {
-        Error::Input {
-            path: path.to_path_buf(),
-            location: Some(location),
-            message: message.into(),
-        }
+        Error::Input { path: path.to_path_buf(), location: Some(location), message: message.into() }
     }
 
     /// An input error with no known line.
     pub fn input(path: &Path, message: impl Into<String>) -> Self {
-        Error::Input {
-            path: path.to_path_buf(),
-            location: None,
-            message: message.into(),
-        }
+        Error::Input { path: path.to_path_buf(), location: None, message: message.into() }
     }
 
     /// An I/O error on `path`.
     pub fn io(path: &Path, cause: std::io::Error) -> Self {
-        Error::Io {
-            path: path.to_path_buf(),
-            cause,
-        }
+        Error::Io { path: path.to_path_buf(), cause }
     }
 
     fn place(path: &Path, location: &Option<Location>) -> impl fmt::Display {
@@ -115,21 +104,9 @@ mod tests {
     #[test]
     fn offsets_map_to_one_based_lines_and_columns() {
         let text = "ab\ncde\n\nf";
-        assert_eq!(
-            Location::from_offset(text, 0),
-            Location { line: 1, column: 1 }
-        );
-        assert_eq!(
-            Location::from_offset(text, 4),
-            Location { line: 2, column: 2 }
-        );
-        assert_eq!(
-            Location::from_offset(text, 8),
-            Location { line: 4, column: 1 }
-        );
-        assert_eq!(
-            Location::from_offset(text, 99),
-            Location { line: 4, column: 2 }
-        );
+        assert_eq!(Location::from_offset(text, 0), Location { line: 1, column: 1 });
+        assert_eq!(Location::from_offset(text, 4), Location { line: 2, column: 2 });
+        assert_eq!(Location::from_offset(text, 8), Location { line: 4, column: 1 });
+        assert_eq!(Location::from_offset(text, 99), Location { line: 4, column: 2 });
     }
 }

@@ -4,7 +4,8 @@
 //! - [`scene`]: the scene file, meshes, built-in shapes, the teapot, OBJ.
 //! - [`accel`]: the [`accel::Intersector`] trait and the Embree backend (the
 //!   only `unsafe` code, in `accel::embree`).
-//! - [`material`], [`light`]: what surfaces and lights are.
+//! - [`material`], [`light`], [`optics`]: what surfaces and lights are, and
+//!   the Fresnel/Snell formulas.
 //! - [`render`]: camera, images, integrators.
 
 #![warn(missing_docs)]
@@ -14,7 +15,9 @@ pub mod accel;
 pub mod error;
 pub mod light;
 pub mod material;
+pub mod optics;
 pub mod render;
+pub mod sampling;
 pub mod scene;
 
 pub use error::{Error, Result};

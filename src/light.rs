@@ -1,6 +1,25 @@
 //! Light sources, in physical units: power in watts per RGB channel.
+//!
+//! For shading, a light is sampled from a point: [`Light::sample_incident`]
+//! picks a point on the light and says what irradiance it delivers (on a
+//! surface facing it), which the integrator multiplies by the BRDF and the
+//! cosine at the receiver after a shadow ray.
 
-use glam::Vec3;
+use std::f32::consts::PI;
+
+use glam::{Vec2, Vec3};
+
+use crate::accel::Ray;
+
+/// One sample of the light arriving at a point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightSample {
+    /// The sampled point on the light (the shadow ray's target).
+    pub position: Vec3,
+    /// Irradiance at the receiver from this sample, on a surface facing the
+    /// light (W/m^2 per channel), already divided by the sample's probability.
+    pub irradiance: Vec3,
+}
 
 /// A light source.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,10 +62,63 @@ impl Light {
     /// Total emitted power (W per channel).
     pub fn power(&self) -> Vec3 {
         match self {
-            Light::Point { power, .. } | Light::Area { power, .. } | Light::Spot { power, .. } => {
-                *power
+            Light::Point { power, .. } | Light::Area { power, .. } | Light::Spot { power, .. } => *power,
+        }
+    }
+
+    /// Whether the light is a single point (one sample says everything).
+    pub fn is_delta(&self) -> bool {
+        !matches!(self, Light::Area { .. })
+    }
+
+    /// Samples the light as seen from `p` with the uniform pair `u`. `None`
+    /// when `p` receives nothing (behind a one-sided area light, outside a
+    /// spot's cone).
+    pub fn sample_incident(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        match *self {
+            Light::Point { position, power } => {
+                let d2 = (position - p).length_squared();
+                Some(LightSample { position, irradiance: power / (4.0 * PI * d2) })
+            }
+            Light::Spot { position, direction, cone_angle, falloff_start, power } => {
+                let to_p = p - position;
+                let d2 = to_p.length_squared();
+                let falloff = spot_falloff(direction.dot(to_p / d2.sqrt()), cone_angle, falloff_start);
+                (falloff > 0.0).then(|| LightSample {
+                    position,
+                    irradiance: spot_peak_intensity(power, cone_angle, falloff_start) * falloff / d2,
+                })
+            }
+            Light::Area { center, u: eu, v: ev, power } => {
+                // Uniform over the area (pdf 1/A) of a Lambertian emitter with
+                // radiance L = power / (pi A): E = L cos_l A / d^2 = power cos_l / (pi d^2).
+                let position = center + (u.x - 0.5) * eu + (u.y - 0.5) * ev;
+                let normal = eu.cross(ev).normalize();
+                let to_p = p - position;
+                let d2 = to_p.length_squared();
+                let cos_l = normal.dot(to_p) / d2.sqrt();
+                (cos_l > 0.0).then(|| LightSample { position, irradiance: power * (cos_l / (PI * d2)) })
             }
         }
+    }
+
+    /// Where `ray` hits the light's emitting side, if it does before
+    /// `ray.t_max`: the ray parameter and the radiance leaving towards the ray.
+    /// Only area lights have a surface to hit.
+    pub fn intersect(&self, ray: &Ray) -> Option<(f32, Vec3)> {
+        let Light::Area { center, u, v, power } = *self else { return None };
+        let normal = u.cross(v);
+        let facing = ray.dir.dot(normal);
+        if facing >= 0.0 {
+            return None; // parallel, or arriving at the back, which does not emit
+        }
+        let t = (center - ray.origin).dot(normal) / facing;
+        if !(t > 0.0 && t <= ray.t_max) {
+            return None;
+        }
+        let local = ray.at(t) - center;
+        let (a, b) = (local.dot(u) / u.length_squared(), local.dot(v) / v.length_squared());
+        (a.abs() <= 0.5 && b.abs() <= 0.5).then(|| (t, power / (PI * normal.length())))
     }
 
     /// A short description for `caustix info`.
@@ -60,15 +132,111 @@ impl Light {
                 v.length(),
                 u.cross(*v).normalize()
             ),
-            Light::Spot {
-                position,
-                direction,
-                cone_angle,
-                ..
-            } => format!(
+            Light::Spot { position, direction, cone_angle, .. } => format!(
                 "spot at {position} towards {direction}, cone {:.1} deg, power {w} W",
                 cone_angle.to_degrees()
             ),
         }
+    }
+}
+
+/// The smooth edge of a spot light: 1 inside `falloff_start`, 0 outside
+/// `cone_angle`, and a smoothstep in the cosine between (as pbrt-v4 does).
+fn spot_falloff(cos_theta: f32, cone_angle: f32, falloff_start: f32) -> f32 {
+    let (cos_total, cos_start) = (cone_angle.cos(), falloff_start.cos());
+    if cos_start - cos_total <= 0.0 {
+        return if cos_theta >= cos_total { 1.0 } else { 0.0 };
+    }
+    let x = ((cos_theta - cos_total) / (cos_start - cos_total)).clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// The intensity on the axis for a spot light emitting `power` in total:
+/// the falloff integrates (over solid angle, d omega = d cos dphi) to
+/// `2 pi ((1 - cos_start) + (cos_start - cos_total) / 2)`, exactly, because a
+/// smoothstep averages to one half.
+fn spot_peak_intensity(power: Vec3, cone_angle: f32, falloff_start: f32) -> Vec3 {
+    let (cos_total, cos_start) = (cone_angle.cos(), falloff_start.cos());
+    power / (2.0 * PI * ((1.0 - cos_start) + 0.5 * (cos_start - cos_total)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{stratified, Rng};
+
+    /// Form factor from a point to a parallel rectangle `a x b` at distance
+    /// `d` with one corner straight above it.
+    fn corner_form_factor(a: f32, b: f32, d: f32) -> f32 {
+        let (x, y) = (a / d, b / d);
+        let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+        (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * PI)
+    }
+
+    #[test]
+    fn area_light_irradiance_matches_the_form_factor() {
+        let (w, h, d) = (1.0f32, 0.5f32, 0.8f32);
+        let light =
+            Light::Area { center: Vec3::Y * d, u: Vec3::X * w, v: Vec3::Z * h, power: Vec3::splat(10.0) };
+        // u x v = X x Z = -Y: facing down at the origin.
+        let radiance = 10.0 / (PI * w * h);
+        let analytic = PI * radiance * 4.0 * corner_form_factor(w / 2.0, h / 2.0, d);
+        let mut rng = Rng::new(0, 0);
+        let n = 64 * 64;
+        let mut estimate = 0.0;
+        for i in 0..n {
+            let s = light.sample_incident(Vec3::ZERO, stratified(i, n, &mut rng)).unwrap();
+            let cos_receiver = (s.position - Vec3::ZERO).normalize().y;
+            estimate += s.irradiance.x * cos_receiver / n as f32;
+        }
+        assert!((estimate / analytic - 1.0).abs() < 1e-3, "{estimate} vs {analytic}");
+        // Behind the light: nothing.
+        assert!(light.sample_incident(Vec3::Y * 2.0, Vec2::splat(0.5)).is_none());
+    }
+
+    #[test]
+    fn spot_light_emits_its_power() {
+        let (cone, start) = (30f32.to_radians(), 20f32.to_radians());
+        let light = Light::Spot {
+            position: Vec3::ZERO,
+            direction: -Vec3::Y,
+            cone_angle: cone,
+            falloff_start: start,
+            power: Vec3::splat(5.0),
+        };
+        // Flux through a unit sphere = integral of intensity = irradiance * r^2 over the sphere.
+        let (nt, np) = (4000, 64);
+        let mut flux = 0.0;
+        for i in 0..nt {
+            let cos_t = -1.0 + 2.0 * (i as f32 + 0.5) / nt as f32;
+            let sin_t = (1.0 - cos_t * cos_t).sqrt();
+            for j in 0..np {
+                let phi = 2.0 * PI * (j as f32 + 0.5) / np as f32;
+                let p = Vec3::new(sin_t * phi.cos(), cos_t, sin_t * phi.sin());
+                if let Some(s) = light.sample_incident(p, Vec2::ZERO) {
+                    flux += s.irradiance.x * 4.0 * PI / (nt * np) as f32;
+                }
+            }
+        }
+        assert!((flux - 5.0).abs() < 0.01, "flux {flux}");
+        assert!(light.sample_incident(Vec3::new(1.0, -1.0, 0.0), Vec2::ZERO).is_none(), "45 deg is outside");
+    }
+
+    #[test]
+    fn point_light_follows_the_inverse_square_law() {
+        let light = Light::Point { position: Vec3::Y * 2.0, power: Vec3::splat(4.0 * PI) };
+        let s = light.sample_incident(Vec3::ZERO, Vec2::ZERO).unwrap();
+        assert!((s.irradiance.x - 0.25).abs() < 1e-6);
+    }
+
+    #[test]
+    fn rays_see_the_front_of_an_area_light_only() {
+        let light = Light::Area { center: Vec3::Y, u: Vec3::X, v: Vec3::Z, power: Vec3::splat(PI) };
+        let up = Ray::new(Vec3::new(0.2, 0.0, -0.3), Vec3::Y);
+        let (t, radiance) = light.intersect(&up).unwrap();
+        assert!((t - 1.0).abs() < 1e-6 && (radiance.x - 1.0).abs() < 1e-6);
+        assert!(light.intersect(&Ray::new(Vec3::new(0.2, 2.0, 0.0), -Vec3::Y)).is_none(), "back side");
+        assert!(light.intersect(&Ray::new(Vec3::new(0.6, 0.0, 0.0), Vec3::Y)).is_none(), "beside it");
+        assert!(light.intersect(&Ray { t_max: 0.5, ..up }).is_none(), "beyond t_max");
     }
 }

@@ -11,8 +11,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use caustix::accel::embree::EmbreeIntersector;
 use caustix::accel::Intersector;
-use caustix::render::{render_preview, Preview};
-use caustix::scene::Scene;
+use caustix::render::{Components, Integrator, RenderSettings};
+use caustix::scene::{limits, Scene};
 
 #[derive(Parser)]
 #[command(
@@ -28,27 +28,50 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene file to an image.
-    Render {
-        /// The scene file (TOML; see the README for the format).
-        scene: PathBuf,
-        /// Output image (PNG). Default: the scene's name with `.png`, in the current folder.
-        #[arg(short, long)]
-        output: Option<PathBuf>,
-        /// Image width in pixels (overrides the scene file).
-        #[arg(long)]
-        width: Option<u32>,
-        /// Image height in pixels (overrides the scene file).
-        #[arg(long)]
-        height: Option<u32>,
-        /// What to show: geometry previews until the lighting integrators land.
-        #[arg(long, value_enum, default_value_t = Preview::Normals)]
-        preview: Preview,
-    },
+    Render(RenderArgs),
     /// Print what a scene holds: triangles, vertices, bounds, materials, lights.
     Info {
         /// The scene file.
         scene: PathBuf,
     },
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The scene file (TOML; see the README for the format).
+    scene: PathBuf,
+    /// Output image: .png (tone-mapped sRGB), .exr or .hdr (linear radiance).
+    /// Default: the scene's name with .png, in the current folder.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Integrator (overrides the scene file's [render] integrator).
+    #[arg(long, value_enum)]
+    integrator: Option<Integrator>,
+    /// Image width in pixels (overrides the scene file).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels (overrides the scene file).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Camera samples per pixel (overrides the scene file).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Longest chain of rays from the camera (overrides the scene file).
+    #[arg(long)]
+    max_depth: Option<u32>,
+    /// Shadow rays per area light at each shading point (overrides the scene file).
+    #[arg(long)]
+    light_samples: Option<u32>,
+    /// Exposure for PNG output, in stops: each pixel is multiplied by 2^EXPOSURE.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Also write these components, each beside the output as NAME-COMPONENT.EXT
+    /// (comma-separated: direct, specular, final).
+    #[arg(long, value_delimiter = ',')]
+    aov: Vec<String>,
+    /// Worker threads (default: all cores). The image is the same for any count.
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 fn main() -> ExitCode {
@@ -63,13 +86,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Render {
-            scene,
-            output,
-            width,
-            height,
-            preview,
-        } => render(&scene, output, width, height, preview),
+        Command::Render(args) => render(args),
         Command::Info { scene } => info(&scene),
     }
 }
@@ -82,53 +99,91 @@ fn load(path: &Path) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
-fn render(
-    path: &Path,
-    output: Option<PathBuf>,
-    width: Option<u32>,
-    height: Option<u32>,
-    preview: Preview,
-) -> anyhow::Result<()> {
-    let scene = load(path)?;
-    let width = checked_side("--width", width.unwrap_or(scene.image.width))?;
-    let height = checked_side("--height", height.unwrap_or(scene.image.height))?;
-    let output = output.unwrap_or_else(|| {
-        PathBuf::from(path.file_stem().unwrap_or_default()).with_extension("png")
-    });
-    let accel =
-        EmbreeIntersector::build(&scene.triangle_views()).context("building the Embree scene")?;
+/// Checks a command-line number against the same bounds as the scene file.
+fn in_range(flag: &str, value: u32, min: u32, max: u32) -> anyhow::Result<u32> {
+    anyhow::ensure!((min..=max).contains(&value), "{flag} must be from {min} to {max}, found {value}");
+    Ok(value)
+}
 
-    let bar = if std::io::stderr().is_terminal() {
-        ProgressBar::new(height as u64)
-    } else {
-        ProgressBar::hidden()
-    };
+fn render(args: RenderArgs) -> anyhow::Result<()> {
+    let scene = load(&args.scene)?;
+    let mut settings = RenderSettings::from_scene(&scene);
+    if let Some(integrator) = args.integrator {
+        settings.integrator = integrator;
+    }
+    settings.width = in_range("--width", args.width.unwrap_or(settings.width), 1, limits::MAX_IMAGE_SIDE)?;
+    settings.height =
+        in_range("--height", args.height.unwrap_or(settings.height), 1, limits::MAX_IMAGE_SIDE)?;
+    settings.samples = in_range("--spp", args.spp.unwrap_or(settings.samples), 1, limits::MAX_SAMPLES)?;
+    settings.max_depth =
+        in_range("--max-depth", args.max_depth.unwrap_or(settings.max_depth), 1, limits::MAX_DEPTH)?;
+    settings.light_samples = in_range(
+        "--light-samples",
+        args.light_samples.unwrap_or(settings.light_samples),
+        1,
+        limits::MAX_SAMPLES,
+    )?;
+    anyhow::ensure!(args.exposure.is_finite(), "--exposure must be a finite number of stops");
+    for name in &args.aov {
+        anyhow::ensure!(
+            Components::NAMES.contains(&name.as_str()),
+            "--aov: unknown component `{name}`; choose from {}",
+            Components::NAMES.join(", ")
+        );
+    }
+    let output = args
+        .output
+        .unwrap_or_else(|| PathBuf::from(args.scene.file_stem().unwrap_or_default()).with_extension("png"));
+
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("starting worker threads")?;
+    let accel = EmbreeIntersector::build(&scene.triangle_views()).context("building the Embree scene")?;
+
+    let pixels = settings.width as u64 * settings.height as u64;
+    let bar = if std::io::stderr().is_terminal() { ProgressBar::new(pixels) } else { ProgressBar::hidden() };
     bar.set_style(
-        ProgressStyle::with_template("{spinner} rendering [{bar:40}] {pos}/{len} rows, {eta} left")
-            .expect("valid template")
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{spinner} rendering [{bar:40}] {percent}% {elapsed} elapsed, {eta} left",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
     );
-    let (image, stats) = render_preview(&scene, &accel, preview, width, height, &|| bar.inc(1));
+    let rendered = pool.install(|| caustix::render::render(&scene, &accel, &settings, &|n| bar.inc(n)));
     bar.finish_and_clear();
-    image.save_png(&output)?;
+
+    let final_image = rendered.image("final").expect("final is a component");
+    final_image.save(&output, args.exposure)?;
+    for name in &args.aov {
+        let path = aov_path(&output, name);
+        rendered.image(name).expect("checked above").save(&path, args.exposure)?;
+        eprintln!("wrote {}", path.display());
+    }
+    let stats = rendered.stats;
     let seconds = stats.elapsed.as_secs_f64();
+    let total_rays = stats.rays + stats.shadow_rays;
     eprintln!(
-        "{}: {width}x{height} {preview:?} preview in {seconds:.2} s, {} rays ({:.1} Mrays/s) with {}",
+        "{}: {}x{} {:?}, {} spp in {seconds:.2} s: {} rays + {} shadow rays ({:.2} Mrays/s) on {} threads with {}",
         output.display(),
+        settings.width,
+        settings.height,
+        settings.integrator,
+        settings.samples,
         stats.rays,
-        stats.rays as f64 / seconds.max(1e-9) / 1e6,
+        stats.shadow_rays,
+        total_rays as f64 / seconds.max(1e-9) / 1e6,
+        pool.current_num_threads(),
         accel.name()
     );
     Ok(())
 }
 
-fn checked_side(flag: &str, value: u32) -> anyhow::Result<u32> {
-    const MAX: u32 = 16384;
-    anyhow::ensure!(
-        (1..=MAX).contains(&value),
-        "{flag} must be from 1 to {MAX}, found {value}"
-    );
-    Ok(value)
+/// `out.png` with component `direct` -> `out-direct.png`.
+fn aov_path(output: &Path, name: &str) -> PathBuf {
+    let stem = output.file_stem().unwrap_or_default().to_string_lossy();
+    let extension = output.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
+    output.with_file_name(format!("{stem}-{name}{extension}"))
 }
 
 fn info(path: &Path) -> anyhow::Result<()> {
@@ -171,8 +226,7 @@ fn info(path: &Path) -> anyhow::Result<()> {
     for l in &scene.lights {
         println!("  {}", l.describe());
     }
-    let accel =
-        EmbreeIntersector::build(&scene.triangle_views()).context("building the Embree scene")?;
+    let accel = EmbreeIntersector::build(&scene.triangle_views()).context("building the Embree scene")?;
     println!("backend   {}", accel.name());
     Ok(())
 }

@@ -10,9 +10,7 @@ use common::{caustix, write, QUAD_SCENE};
 
 /// The 1-based line of the first occurrence of `needle` in `text`.
 fn line_of(text: &str, needle: &str) -> usize {
-    let at = text
-        .find(needle)
-        .unwrap_or_else(|| panic!("`{needle}` not in the test scene"));
+    let at = text.find(needle).unwrap_or_else(|| panic!("`{needle}` not in the test scene"));
     text[..at].matches('\n').count() + 1
 }
 
@@ -28,14 +26,8 @@ fn error_for(text: &str) -> String {
 fn assert_error_at(text: &str, marker: &str, says: &str) {
     let err = error_for(text);
     let prefix = format!("bad.toml:{}:", line_of(text, marker));
-    assert!(
-        err.starts_with(&prefix),
-        "expected `{prefix}...`, got: {err}"
-    );
-    assert!(
-        err.contains(says),
-        "expected it to say `{says}`, got: {err}"
-    );
+    assert!(err.starts_with(&prefix), "expected `{prefix}...`, got: {err}");
+    assert!(err.contains(says), "expected it to say `{says}`, got: {err}");
 }
 
 /// The quad scene with `from` replaced by `to` (which must occur).
@@ -65,21 +57,13 @@ fn unknown_section() {
 #[test]
 fn material_that_does_not_exist() {
     let text = edit(r#"material = "white""#, r#"material = "whit""#);
-    assert_error_at(
-        &text,
-        "\"whit\"",
-        "unknown material `whit`; defined materials: white",
-    );
+    assert_error_at(&text, "\"whit\"", "unknown material `whit`; defined materials: white");
 }
 
 #[test]
 fn non_finite_numbers() {
     assert_error_at(&edit("fov = 90", "fov = nan"), "fov", "finite");
-    assert_error_at(
-        &edit("position = [0, 0, 4]", "position = [0, inf, 4]"),
-        "position",
-        "finite",
-    );
+    assert_error_at(&edit("position = [0, 0, 4]", "position = [0, inf, 4]"), "position", "finite");
     assert_error_at(&edit("power = 100", "power = -inf"), "power = ", "finite");
     // Finite in TOML but beyond single precision.
     assert_error_at(&edit("u = [5, 0, 0]", "u = [5e39, 0, 0]"), "u = ", "finite");
@@ -88,66 +72,32 @@ fn non_finite_numbers() {
 #[test]
 fn negative_and_zero_sizes() {
     let sphere = "\n[[sphere]]\ncenter = [0, 0, 0]\nradius = -1\nmaterial = \"white\"\n";
-    assert_error_at(
-        &format!("{QUAD_SCENE}{sphere}"),
-        "radius = -1",
-        "greater than 0",
-    );
+    assert_error_at(&format!("{QUAD_SCENE}{sphere}"), "radius = -1", "greater than 0");
     let cube = "\n[[box]]\ncenter = [0, 0, 0]\nsize = [1, -2, 1]\nmaterial = \"white\"\n";
     assert_error_at(&format!("{QUAD_SCENE}{cube}"), "size =", "greater than 0");
     assert_error_at(&edit("width = 64", "width = -64"), "width", "from 1 to");
     assert_error_at(&edit("height = 64", "height = 0"), "height", "from 1 to");
-    let scaled = edit(
-        "material = \"white\"",
-        "material = \"white\"\ntransform = { scale = [1, 0, 1] }",
-    );
+    let scaled = edit("material = \"white\"", "material = \"white\"\ntransform = { scale = [1, 0, 1] }");
     assert_error_at(&scaled, "transform", "non-zero scale");
-    assert_error_at(
-        &edit("power = 100", "power = [1, -2, 3]"),
-        "power = ",
-        "not negative",
-    );
+    assert_error_at(&edit("power = 100", "power = [1, -2, 3]"), "power = ", "not negative");
 }
 
 #[test]
 fn wrong_shapes_of_values() {
-    assert_error_at(
-        &edit("eye = [0, 0, 5]", "eye = [0, 5]"),
-        "eye",
-        "array of 3 numbers",
-    );
-    assert_error_at(
-        &edit("eye = [0, 0, 5]", "eye = 5"),
-        "eye",
-        "array of 3 numbers",
-    );
-    assert_error_at(
-        &edit("diffuse = 0.8", "diffuse = 1.2"),
-        "diffuse",
-        "between 0 and 1",
-    );
+    assert_error_at(&edit("eye = [0, 0, 5]", "eye = [0, 5]"), "eye", "array of 3 numbers");
+    assert_error_at(&edit("eye = [0, 0, 5]", "eye = 5"), "eye", "array of 3 numbers");
+    assert_error_at(&edit("diffuse = 0.8", "diffuse = 1.2"), "diffuse", "between 0 and 1");
 }
 
 #[test]
 fn impossible_geometry_and_physics() {
-    assert_error_at(
-        &edit("v = [0, 5, 0]", "v = [10, 0, 0]"),
-        "u = [5, 0, 0]",
-        "parallel",
-    );
+    assert_error_at(&edit("v = [0, 5, 0]", "v = [10, 0, 0]"), "u = [5, 0, 0]", "parallel");
     let bright = edit("diffuse = 0.8", "diffuse = 0.8\nmirror = 0.5");
     assert_error_at(&bright, "[materials.white]", "at most 1");
     let ring = "\n[[ring]]\nbase = [0, 0, 0]\ninner_radius = 2\nouter_radius = 1\nheight = 1\nmaterial = \"white\"\n";
-    assert_error_at(
-        &format!("{QUAD_SCENE}{ring}"),
-        "outer_radius",
-        "larger than inner_radius",
-    );
+    assert_error_at(&format!("{QUAD_SCENE}{ring}"), "outer_radius", "larger than inner_radius");
     let err = error_for(&edit("look_at = [0, 0, 0]", "look_at = [0, 0, 5]"));
-    assert!(
-        err.starts_with("bad.toml: [camera]") && err.contains("same point"),
-        "{err}"
-    );
+    assert!(err.starts_with("bad.toml: [camera]") && err.contains("same point"), "{err}");
     let err = error_for(&edit("eye = [0, 0, 5]", "eye = [0, 5, 0]\nup = [0, 2, 0]"));
     assert!(err.contains("parallel to the viewing direction"), "{err}");
 }
@@ -156,81 +106,47 @@ fn impossible_geometry_and_physics() {
 fn empty_scene() {
     let text = QUAD_SCENE[..QUAD_SCENE.find("[[quad]]").unwrap()].to_string();
     let err = error_for(&text);
-    assert!(
-        err.starts_with("bad.toml: the scene has no geometry"),
-        "{err}"
-    );
+    assert!(err.starts_with("bad.toml: the scene has no geometry"), "{err}");
     let err = error_for("");
     assert!(err.contains("missing field `camera`"), "{err}");
 }
 
 #[test]
 fn missing_files() {
-    let err = Scene::load(Path::new("does/not/exist.toml"))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        err.starts_with("does/not/exist.toml: ") && err.contains("No such file"),
-        "{err}"
-    );
+    let err = Scene::load(Path::new("does/not/exist.toml")).unwrap_err().to_string();
+    assert!(err.starts_with("does/not/exist.toml: ") && err.contains("No such file"), "{err}");
     let dir = tempfile::tempdir().unwrap();
     let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"nothere.obj\"\n");
     let path = write(dir.path(), "scene.toml", &text);
     let err = Scene::load(&path).unwrap_err().to_string();
     let line = line_of(&text, "nothere.obj");
-    assert!(
-        err.contains(&format!("scene.toml:{line}:")) && err.contains("not found"),
-        "{err}"
-    );
+    assert!(err.contains(&format!("scene.toml:{line}:")) && err.contains("not found"), "{err}");
 }
 
 #[test]
 fn obj_that_fails_to_parse() {
     let dir = tempfile::tempdir().unwrap();
-    let obj = write(
-        dir.path(),
-        "broken.obj",
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n",
-    );
+    let obj = write(dir.path(), "broken.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n");
     let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"broken.obj\"\nmaterial = \"white\"\n");
     let scene = write(dir.path(), "scene.toml", &text);
     let err = Scene::load(&scene).unwrap_err().to_string();
     let expected = format!("{}:5:", obj.display());
-    assert!(
-        err.starts_with(&expected) && err.contains("vertex 9 does not exist"),
-        "{err}"
-    );
+    assert!(err.starts_with(&expected) && err.contains("vertex 9 does not exist"), "{err}");
 
     let garbled = write(dir.path(), "garbled.obj", "v 0 0 0\nv 1 zero 0\n");
-    let err = Scene::load(&write(
-        dir.path(),
-        "s2.toml",
-        &text.replace("broken.obj", "garbled.obj"),
-    ))
-    .unwrap_err()
-    .to_string();
-    assert!(
-        err.starts_with(&format!("{}:2:", garbled.display())) && err.contains("`zero`"),
-        "{err}"
-    );
+    let err = Scene::load(&write(dir.path(), "s2.toml", &text.replace("broken.obj", "garbled.obj")))
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with(&format!("{}:2:", garbled.display())) && err.contains("`zero`"), "{err}");
 }
 
 #[test]
 fn obj_without_materials_needs_one_in_the_scene() {
     let dir = tempfile::tempdir().unwrap();
-    write(
-        dir.path(),
-        "tri.obj",
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
-    );
+    write(dir.path(), "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"tri.obj\"\n");
-    let err = Scene::load(&write(dir.path(), "s.toml", &text))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        err.contains("tri.obj") && err.contains("has no material"),
-        "{err}"
-    );
+    let err = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap_err().to_string();
+    assert!(err.contains("tri.obj") && err.contains("has no material"), "{err}");
     // With one given, it loads.
     let text = format!("{text}material = \"white\"\n");
     let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
@@ -242,13 +158,8 @@ fn bpt_errors_name_the_bpt_file() {
     let dir = tempfile::tempdir().unwrap();
     let bpt = write(dir.path(), "bad.bpt", "1\n3 3\n0 0 0\n");
     let text = format!("{QUAD_SCENE}\n[[teapot]]\nfile = \"bad.bpt\"\nmaterial = \"white\"\n");
-    let err = Scene::load(&write(dir.path(), "s.toml", &text))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        err.starts_with(&format!("{}:", bpt.display())) && err.contains("file ends"),
-        "{err}"
-    );
+    let err = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap_err().to_string();
+    assert!(err.starts_with(&format!("{}:", bpt.display())) && err.contains("file ends"), "{err}");
 }
 
 /// Every bad input through the binary: exit code 1, one `error:` line, no panic.
@@ -271,29 +182,19 @@ fn cli_reports_errors_without_panicking() {
         for command in ["render", "info"] {
             let out = dir.path().join("out.png");
             let run = caustix(
-                &[
-                    command.as_ref(),
-                    path.as_os_str(),
-                    "-o".as_ref(),
-                    out.as_os_str(),
-                ][..if command == "info" { 2 } else { 4 }],
+                &[command.as_ref(), path.as_os_str(), "-o".as_ref(), out.as_os_str()]
+                    [..if command == "info" { 2 } else { 4 }],
             );
             let stderr = String::from_utf8_lossy(&run.stderr);
             assert_eq!(run.status.code(), Some(1), "case {i} ({command}): {stderr}");
-            assert!(
-                stderr.starts_with("error: ") && !stderr.contains("panicked"),
-                "case {i}: {stderr}"
-            );
+            assert!(stderr.starts_with("error: ") && !stderr.contains("panicked"), "case {i}: {stderr}");
             assert!(
                 stderr.contains(&format!("case{i}.toml")) || stderr.contains("broken.obj"),
                 "case {i}: {stderr}"
             );
         }
     }
-    let run = caustix(&[
-        "render".as_ref(),
-        dir.path().join("absent.toml").as_os_str(),
-    ]);
+    let run = caustix(&["render".as_ref(), dir.path().join("absent.toml").as_os_str()]);
     assert_eq!(run.status.code(), Some(1));
     let run = caustix(&[
         "render".as_ref(),
@@ -301,10 +202,5 @@ fn cli_reports_errors_without_panicking() {
         "--width".as_ref(),
         "0".as_ref(),
     ]);
-    assert_eq!(
-        run.status.code(),
-        Some(1),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    assert_eq!(run.status.code(), Some(1), "{}", String::from_utf8_lossy(&run.stderr));
 }

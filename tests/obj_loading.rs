@@ -27,20 +27,13 @@ fn mtl_materials_map_onto_ours() {
     let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
 
     let material_of = |object: &str| {
-        let mesh = scene
-            .meshes
-            .iter()
-            .find(|m| m.name == format!("things.obj:{object}"))
-            .unwrap();
+        let mesh = scene.meshes.iter().find(|m| m.name == format!("things.obj:{object}")).unwrap();
         &scene.materials[mesh.material]
     };
     assert_eq!(material_of("matte").diffuse, Vec3::new(0.5, 0.25, 0.125));
     assert_eq!(material_of("matte").name, "things.obj:matte");
     let chrome = material_of("chrome");
-    assert_eq!(
-        (chrome.mirror, chrome.specular),
-        (Vec3::splat(0.9), Vec3::ZERO)
-    );
+    assert_eq!((chrome.mirror, chrome.specular), (Vec3::splat(0.9), Vec3::ZERO));
     let water = material_of("water");
     assert_eq!((water.transmittance, water.ior), (Vec3::ONE, 1.33));
     // 0.9 + 0.6 reflects 1.5x what arrives: scaled to 1, with a warning.
@@ -62,9 +55,7 @@ fn obj_normals_are_used_when_present() {
     let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
     let mesh = scene.meshes.last().unwrap();
     assert!(mesh.normals[0].abs_diff_eq(Vec3::new(-1.0, -1.0, 1.0).normalize(), 1e-6));
-    assert!(mesh
-        .shading_normal(0, 1.0, 0.0)
-        .abs_diff_eq(Vec3::new(1.0, 0.0, 1.0).normalize(), 1e-6));
+    assert!(mesh.shading_normal(0, 1.0, 0.0).abs_diff_eq(Vec3::new(1.0, 0.0, 1.0).normalize(), 1e-6));
 }
 
 #[test]
@@ -96,11 +87,6 @@ fn bunny_loads_closed_with_outward_normals() {
     // Smooth normals agree with the faces around them.
     for (prim, _) in bunny.indices.iter().enumerate() {
         let face = bunny.face_normal(prim as u32);
-        assert!(
-            bunny
-                .shading_normal(prim as u32, 1.0 / 3.0, 1.0 / 3.0)
-                .dot(face)
-                > 0.0
-        );
+        assert!(bunny.shading_normal(prim as u32, 1.0 / 3.0, 1.0 / 3.0).dot(face) > 0.0);
     }
 }

@@ -6,7 +6,7 @@ mod common;
 use std::path::Path;
 
 use caustix::accel::embree::EmbreeIntersector;
-use caustix::render::{render_preview, Preview};
+use caustix::render::{render, Integrator, RenderSettings};
 use caustix::scene::Scene;
 use common::{caustix, write, QUAD_SCENE};
 use glam::Vec3;
@@ -16,12 +16,19 @@ fn on_quad(x: u32, y: u32) -> bool {
     (16..48).contains(&x) && (16..48).contains(&y)
 }
 
-#[test]
-fn quad_covers_exactly_the_expected_pixels() {
+/// The quad scene rendered with `integrator`.
+fn preview(integrator: Integrator) -> (Scene, caustix::render::image::Image) {
     let scene = Scene::from_toml(QUAD_SCENE, Path::new("quad.toml")).unwrap();
     let accel = EmbreeIntersector::build(&scene.triangle_views()).unwrap();
-    let (image, stats) = render_preview(&scene, &accel, Preview::Normals, 64, 64, &|| {});
-    assert_eq!(stats.rays, 64 * 64);
+    let settings = RenderSettings { integrator, ..RenderSettings::from_scene(&scene) };
+    let rendered = render(&scene, &accel, &settings, &|_| {});
+    assert_eq!(rendered.stats.rays, 64 * 64);
+    (scene, rendered.image("final").unwrap())
+}
+
+#[test]
+fn quad_covers_exactly_the_expected_pixels() {
+    let (scene, image) = preview(Integrator::Normals);
     // The quad faces +z, straight at the camera: normal colour 0.5 * (n + 1)
     // dimmed by 0.3 + 0.7 * cos(angle to the viewer).
     for y in 0..64 {
@@ -30,10 +37,7 @@ fn quad_covers_exactly_the_expected_pixels() {
             if on_quad(x, y) {
                 let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5, 64, 64);
                 let expected = Vec3::new(0.5, 0.5, 1.0) * (0.3 + 0.7 * ray.dir.dot(-Vec3::Z));
-                assert!(
-                    p.abs_diff_eq(expected, 1e-5),
-                    "pixel ({x}, {y}) is {p}, expected {expected}"
-                );
+                assert!(p.abs_diff_eq(expected, 1e-5), "pixel ({x}, {y}) is {p}, expected {expected}");
             } else {
                 assert_eq!(p, Vec3::ZERO, "pixel ({x}, {y}) should miss");
             }
@@ -43,15 +47,10 @@ fn quad_covers_exactly_the_expected_pixels() {
 
 #[test]
 fn depth_preview_gets_nearer_towards_the_centre() {
-    let scene = Scene::from_toml(QUAD_SCENE, Path::new("quad.toml")).unwrap();
-    let accel = EmbreeIntersector::build(&scene.triangle_views()).unwrap();
-    let (image, _) = render_preview(&scene, &accel, Preview::Depth, 64, 64, &|| {});
+    let (_, image) = preview(Integrator::Depth);
     let centre = image.get(32, 32).x;
     let corner = image.get(16, 16).x;
-    assert!(
-        centre > corner && corner > 0.0,
-        "centre {centre}, corner {corner}"
-    );
+    assert!(centre > corner && corner > 0.0, "centre {centre}, corner {corner}");
     assert_eq!(image.get(0, 0), Vec3::ZERO);
 }
 
@@ -65,22 +64,18 @@ fn cli_renders_a_png_and_reports_what_it_did() {
         scene.as_os_str(),
         "-o".as_ref(),
         out.as_os_str(),
+        "--integrator".as_ref(),
+        "normals".as_ref(),
     ]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
-    assert!(
-        stderr.contains("embree 3."),
-        "summary names the backend: {stderr}"
-    );
+    assert!(stderr.contains("embree 3."), "summary names the backend: {stderr}");
     let png = image::open(&out).unwrap().to_rgb8();
     assert_eq!(png.dimensions(), (64, 64));
     assert_eq!(png.get_pixel(0, 0).0, [0, 0, 0]);
     assert_eq!(png.get_pixel(63, 63).0, [0, 0, 0]);
     let centre = png.get_pixel(32, 32).0;
-    assert!(
-        centre[2] > 250 && centre[0] > 150 && centre[0] < 200,
-        "centre pixel {centre:?}"
-    );
+    assert!(centre[2] > 250 && centre[0] > 150 && centre[0] < 200, "centre pixel {centre:?}");
 }
 
 #[test]
@@ -88,29 +83,11 @@ fn cli_size_flags_override_the_scene() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
     let out = dir.path().join("small.png");
-    let args = [
-        "render".as_ref(),
-        scene.as_os_str(),
-        "-o".as_ref(),
-        out.as_os_str(),
-    ];
+    let args = ["render".as_ref(), scene.as_os_str(), "-o".as_ref(), out.as_os_str()];
     let run = caustix(
-        &[
-            &args[..],
-            &[
-                "--width".as_ref(),
-                "20".as_ref(),
-                "--height".as_ref(),
-                "10".as_ref(),
-            ],
-        ]
-        .concat(),
+        &[&args[..], &["--width".as_ref(), "20".as_ref(), "--height".as_ref(), "10".as_ref()]].concat(),
     );
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     assert_eq!(image::open(&out).unwrap().to_rgb8().dimensions(), (20, 10));
 }
 
@@ -121,30 +98,17 @@ fn cli_info_lists_the_scene() {
     let run = caustix(&["info".as_ref(), scene.as_os_str()]);
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success());
-    for expected in [
-        "2 triangles, 4 vertices in 1 meshes",
-        "white",
-        "point at [0, 0, 4]",
-        "embree 3.",
-    ] {
-        assert!(
-            stdout.contains(expected),
-            "missing `{expected}` in:\n{stdout}"
-        );
+    for expected in ["2 triangles, 4 vertices in 1 meshes", "white", "point at [0, 0, 4]", "embree 3."] {
+        assert!(stdout.contains(expected), "missing `{expected}` in:\n{stdout}");
     }
 }
 
 #[test]
 fn shipped_scenes_load() {
     for name in ["teapot", "cornell", "ring"] {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(format!("{name}.toml"));
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(format!("{name}.toml"));
         let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-        assert!(
-            scene.triangle_count() > 0 && !scene.lights.is_empty(),
-            "{name}"
-        );
+        assert!(scene.triangle_count() > 0 && !scene.lights.is_empty(), "{name}");
         assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
     }
 }

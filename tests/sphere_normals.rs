@@ -29,10 +29,7 @@ fn vertex_normals_match_the_analytic_normal() {
     assert!(errors.iter().all(|&e| e < 1.0), "{errors:?}");
     // The default level (4, 5120 triangles) is within 0.2 degrees.
     assert!(errors[3] < 0.2, "level 4: {} degrees", errors[3]);
-    assert!(
-        errors[1..].windows(2).all(|w| w[1] < 0.6 * w[0]),
-        "not converging: {errors:?}"
-    );
+    assert!(errors[1..].windows(2).all(|w| w[1] < 0.6 * w[0]), "not converging: {errors:?}");
 }
 
 #[test]

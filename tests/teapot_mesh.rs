@@ -71,26 +71,16 @@ fn seams_are_welded_so_only_the_datas_open_curves_are_open() {
     // Level 1 is excluded on purpose: the handle and spout are tubes of two
     // patches, so one quad per patch flattens each tube end into two
     // coincident segments.
-    assert_eq!(
-        open_curves, 16,
-        "rim top, lid bottom, handle and spout ends"
-    );
+    assert_eq!(open_curves, 16, "rim top, lid bottom, handle and spout ends");
     for level in 2..=16 {
         let (positions, indices) = tessellate(&patches, level);
         let mesh = Mesh::new("teapot", positions, indices, None, 0);
         let uses = edge_uses(&mesh);
         let boundary = uses.values().filter(|(a, b)| a + b == 1).count();
-        assert_eq!(
-            boundary,
-            open_curves * level,
-            "level {level}: open edges beyond the data's open curves"
-        );
+        assert_eq!(boundary, open_curves * level, "level {level}: open edges beyond the data's open curves");
         // Consistent orientation: a shared edge is used once in each direction.
         let same_way = uses.values().filter(|(a, b)| *a > 1 || *b > 1).count();
-        assert_eq!(
-            same_way, 0,
-            "level {level}: neighbouring triangles disagree on the outside"
-        );
+        assert_eq!(same_way, 0, "level {level}: neighbouring triangles disagree on the outside");
     }
 }
 

@@ -25,11 +25,7 @@ pub struct Ray {
 impl Ray {
     /// A ray with unbounded extent.
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
-        Ray {
-            origin,
-            dir,
-            t_max: f32::INFINITY,
-        }
+        Ray { origin, dir, t_max: f32::INFINITY }
     }
 
     /// The point at parameter `t`.

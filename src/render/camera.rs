@@ -27,12 +27,7 @@ pub struct Camera {
 impl Camera {
     /// A camera at `eye` looking at `look_at`, with `up` roughly up and
     /// `vertical_fov_deg` the full vertical field of view in degrees.
-    pub fn new(
-        eye: Vec3,
-        look_at: Vec3,
-        up: Vec3,
-        vertical_fov_deg: f32,
-    ) -> Result<Camera, String> {
+    pub fn new(eye: Vec3, look_at: Vec3, up: Vec3, vertical_fov_deg: f32) -> Result<Camera, String> {
         let w = (eye - look_at)
             .try_normalize()
             .ok_or("the camera's eye and look_at are the same point; move one of them")?;
@@ -40,17 +35,13 @@ impl Camera {
             "the camera's up vector is zero or parallel to the viewing direction; choose an up that is not",
         )?;
         if !(vertical_fov_deg > 0.0 && vertical_fov_deg < 180.0) {
-            return Err(format!("the field of view must lie strictly between 0 and 180 degrees, found {vertical_fov_deg}"));
+            return Err(format!(
+                "the field of view must lie strictly between 0 and 180 degrees, found {vertical_fov_deg}"
+            ));
         }
         let v = w.cross(u);
         let tan_half_fov = (0.5 * vertical_fov_deg.to_radians()).tan();
-        Ok(Camera {
-            eye,
-            u,
-            v,
-            w,
-            tan_half_fov,
-        })
+        Ok(Camera { eye, u, v, w, tan_half_fov })
     }
 
     /// The ray through image position `(x, y)` in pixels, measured from the
@@ -72,11 +63,7 @@ mod tests {
     fn basis_is_orthonormal_and_right_handed() {
         let cases = [
             (Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, Vec3::Y),
-            (
-                Vec3::new(3.0, -2.0, 1.0),
-                Vec3::new(0.5, 0.5, -4.0),
-                Vec3::new(0.1, 1.0, 0.3),
-            ),
+            (Vec3::new(3.0, -2.0, 1.0), Vec3::new(0.5, 0.5, -4.0), Vec3::new(0.1, 1.0, 0.3)),
             (Vec3::new(0.0, 10.0, 0.1), Vec3::ZERO, Vec3::Z),
         ];
         for (eye, at, up) in cases {

@@ -21,16 +21,8 @@ impl Image {
     /// An image from whole rows.
     pub fn from_rows(width: u32, height: u32, rows: Vec<Vec<Vec3>>) -> Image {
         let pixels: Vec<Vec3> = rows.into_iter().flatten().collect();
-        assert_eq!(
-            pixels.len(),
-            width as usize * height as usize,
-            "rows do not fill the image"
-        );
-        Image {
-            width,
-            height,
-            pixels,
-        }
+        assert_eq!(pixels.len(), width as usize * height as usize, "rows do not fill the image");
+        Image { width, height, pixels }
     }
 
     /// The pixel at column `x`, row `y` (row 0 is the top).
@@ -38,30 +30,75 @@ impl Image {
         self.pixels[(y * self.width + x) as usize]
     }
 
-    /// 8-bit sRGB: linear values clamped to `[0, 1]` and gamma-encoded.
-    pub fn to_srgb8(&self) -> Vec<u8> {
+    /// 8-bit sRGB for display: each value times `2^exposure`, clamped to
+    /// `[0, 1]` and gamma-encoded.
+    pub fn to_srgb8(&self, exposure: f32) -> Vec<u8> {
+        let scale = exposure.exp2();
         self.pixels
             .iter()
-            .flat_map(|p| {
-                p.to_array()
-                    .map(|c| (linear_to_srgb(c) * 255.0).round() as u8)
-            })
+            .flat_map(|p| p.to_array().map(|c| (linear_to_srgb(c * scale) * 255.0).round() as u8))
             .collect()
     }
 
-    /// Writes a PNG (sRGB, 8 bits per channel).
-    pub fn save_png(&self, path: &Path) -> Result<()> {
-        let buffer = image::RgbImage::from_raw(self.width, self.height, self.to_srgb8())
-            .expect("buffer size matches the image");
-        buffer
-            .save_with_format(path, image::ImageFormat::Png)
-            .map_err(|e| match e {
-                image::ImageError::IoError(io) => Error::io(path, io),
-                other => Error::Image {
+    /// Writes the image in the format its extension names: `.png` is
+    /// display-ready 8-bit sRGB after `exposure` (in stops); `.exr` and `.hdr`
+    /// keep the linear radiance values as they are (exposure is not applied).
+    pub fn save(&self, path: &Path, exposure: f32) -> Result<()> {
+        let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let result = match extension.as_deref() {
+            Some("png") => image::RgbImage::from_raw(self.width, self.height, self.to_srgb8(exposure))
+                .expect("buffer size matches the image")
+                .save_with_format(path, image::ImageFormat::Png),
+            Some(linear @ ("exr" | "hdr")) => {
+                let data = self.pixels.iter().flat_map(|p| p.to_array()).collect();
+                let format =
+                    if linear == "exr" { image::ImageFormat::OpenExr } else { image::ImageFormat::Hdr };
+                image::Rgb32FImage::from_raw(self.width, self.height, data)
+                    .expect("buffer size matches the image")
+                    .save_with_format(path, format)
+            }
+            _ => {
+                return Err(Error::Image {
                     path: path.to_path_buf(),
-                    message: other.to_string(),
-                },
-            })
+                    message: "unknown image format; name the file .png, .exr or .hdr".into(),
+                })
+            }
+        };
+        result.map_err(|e| image_error(path, e))
+    }
+
+    /// Reads an image: `.exr` and `.hdr` as the linear values they hold, other
+    /// formats (PNG) decoded from sRGB to linear.
+    pub fn load(path: &Path) -> Result<Image> {
+        let decoded = image::open(path).map_err(|e| image_error(path, e))?;
+        let is_linear = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr") || e.eq_ignore_ascii_case("hdr"));
+        let rgb = decoded.to_rgb32f();
+        let pixels = rgb
+            .pixels()
+            .map(
+                |p| if is_linear { Vec3::from_array(p.0) } else { Vec3::from_array(p.0.map(srgb_to_linear)) },
+            )
+            .collect();
+        Ok(Image { width: rgb.width(), height: rgb.height(), pixels })
+    }
+}
+
+fn image_error(path: &Path, e: image::ImageError) -> Error {
+    match e {
+        image::ImageError::IoError(io) => Error::io(path, io),
+        other => Error::Image { path: path.to_path_buf(), message: other.to_string() },
+    }
+}
+
+/// Inverse of [`linear_to_srgb`] on `[0, 1]`.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.040_45 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
     }
 }
 
@@ -87,5 +124,34 @@ mod tests {
         assert!((linear_to_srgb(0.18) - 0.4614).abs() < 1e-3);
         assert_eq!(linear_to_srgb(f32::NAN), 0.0);
         assert_eq!(linear_to_srgb(7.0), linear_to_srgb(1.0));
+        for c in [0.0, 0.002, 0.1, 0.5, 1.0] {
+            assert!((srgb_to_linear(linear_to_srgb(c)) - c).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn linear_formats_round_trip_and_unknown_ones_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let pixels = (0..6).map(|i| Vec3::new(i as f32 * 2.5, 0.125, 1e-3)).collect();
+        let image = Image { width: 3, height: 2, pixels };
+        let exr = dir.path().join("a.exr");
+        image.save(&exr, 3.0).unwrap();
+        assert_eq!(Image::load(&exr).unwrap(), image, "EXR keeps linear f32 values, no exposure");
+        let hdr = dir.path().join("a.hdr");
+        image.save(&hdr, 0.0).unwrap();
+        let back = Image::load(&hdr).unwrap();
+        for (a, b) in back.pixels.iter().zip(&image.pixels) {
+            assert!((*a - *b).abs().max_element() <= 0.01 * b.max_element(), "{a} vs {b}");
+        }
+        let err = image.save(&dir.path().join("a.jpg"), 0.0).unwrap_err().to_string();
+        assert!(err.contains(".png, .exr or .hdr"), "{err}");
+    }
+
+    #[test]
+    fn exposure_scales_by_powers_of_two() {
+        let quarter = Image { width: 1, height: 1, pixels: vec![Vec3::splat(0.25)] };
+        let half = Image { width: 1, height: 1, pixels: vec![Vec3::splat(0.5)] };
+        assert_eq!(quarter.to_srgb8(2.0), vec![255, 255, 255]);
+        assert_eq!(quarter.to_srgb8(1.0), half.to_srgb8(0.0));
     }
 }

@@ -14,6 +14,8 @@ use super::values::{whole_number, Finite, Point, Positive, Power, Reflectance, S
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// Most samples per pixel we accept.
 pub const MAX_SAMPLES: u32 = 1 << 16;
+/// Longest ray chain we accept.
+pub const MAX_DEPTH: u32 = 64;
 /// Finest tessellation we accept (sphere: 20 * 4^9 = 5.2M triangles).
 pub const MAX_SPHERE_SUBDIVISIONS: u32 = 9;
 /// Finest teapot tessellation (32 * 2 * 1024^2 = 67M triangles).
@@ -26,6 +28,8 @@ pub struct SceneFile {
     pub camera: CameraSection,
     #[serde(default)]
     pub image: ImageSection,
+    #[serde(default)]
+    pub render: RenderSection,
     #[serde(default)]
     pub materials: BTreeMap<String, Spanned<MaterialSection>>,
     #[serde(default)]
@@ -81,11 +85,7 @@ pub struct ImageSection {
 
 impl Default for ImageSection {
     fn default() -> Self {
-        ImageSection {
-            width: 640,
-            height: 480,
-            samples: default_samples(),
-        }
+        ImageSection { width: 640, height: 480, samples: default_samples() }
     }
 }
 
@@ -98,6 +98,50 @@ fn image_side<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 }
 
 fn samples<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 1, MAX_SAMPLES)
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSection {
+    #[serde(default = "default_integrator")]
+    pub integrator: crate::render::Integrator,
+    #[serde(default = "default_max_depth", deserialize_with = "max_depth")]
+    pub max_depth: u32,
+    #[serde(default = "default_light_samples", deserialize_with = "light_samples")]
+    pub light_samples: u32,
+    #[serde(default)]
+    pub ambient: Option<Power>,
+}
+
+impl Default for RenderSection {
+    fn default() -> Self {
+        RenderSection {
+            integrator: default_integrator(),
+            max_depth: default_max_depth(),
+            light_samples: default_light_samples(),
+            ambient: None,
+        }
+    }
+}
+
+fn default_integrator() -> crate::render::Integrator {
+    crate::render::Integrator::Whitted
+}
+
+fn default_max_depth() -> u32 {
+    10
+}
+
+fn max_depth<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 1, MAX_DEPTH)
+}
+
+fn default_light_samples() -> u32 {
+    4
+}
+
+fn light_samples<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     whole_number(d, 1, MAX_SAMPLES)
 }
 

@@ -18,10 +18,7 @@ pub struct Bounds {
 
 impl Bounds {
     /// The empty box (contains nothing; any union replaces it).
-    pub const EMPTY: Bounds = Bounds {
-        min: Vec3::INFINITY,
-        max: Vec3::NEG_INFINITY,
-    };
+    pub const EMPTY: Bounds = Bounds { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY };
 
     /// The box around `points`.
     pub fn of(points: &[Vec3]) -> Bounds {
@@ -30,18 +27,12 @@ impl Bounds {
 
     /// This box grown to include `p`.
     pub fn union_point(self, p: Vec3) -> Bounds {
-        Bounds {
-            min: self.min.min(p),
-            max: self.max.max(p),
-        }
+        Bounds { min: self.min.min(p), max: self.max.max(p) }
     }
 
     /// The box around both.
     pub fn union(self, other: Bounds) -> Bounds {
-        Bounds {
-            min: self.min.min(other.min),
-            max: self.max.max(other.max),
-        }
+        Bounds { min: self.min.min(other.min), max: self.max.max(other.max) }
     }
 
     /// Whether the box holds no point.
@@ -78,33 +69,19 @@ impl Mesh {
         normals: Option<Vec<Vec3>>,
         material: usize,
     ) -> Mesh {
-        debug_assert!(indices
-            .iter()
-            .flatten()
-            .all(|&i| (i as usize) < positions.len()));
-        let indices: Vec<[u32; 3]> = indices
-            .into_iter()
-            .filter(|&t| face_cross(&positions, t) != Vec3::ZERO)
-            .collect();
+        debug_assert!(indices.iter().flatten().all(|&i| (i as usize) < positions.len()));
+        let indices: Vec<[u32; 3]> =
+            indices.into_iter().filter(|&t| face_cross(&positions, t) != Vec3::ZERO).collect();
         let normals = match normals {
             Some(n) => n.into_iter().map(|n| n.normalize_or_zero()).collect(),
             None => vertex_normals(&positions, &indices),
         };
-        Mesh {
-            name: name.into(),
-            positions,
-            normals,
-            indices,
-            material,
-        }
+        Mesh { name: name.into(), positions, normals, indices, material }
     }
 
     /// The triangles as an intersector reads them.
     pub fn view(&self) -> TriangleView<'_> {
-        TriangleView {
-            positions: &self.positions,
-            indices: &self.indices,
-        }
+        TriangleView { positions: &self.positions, indices: &self.indices }
     }
 
     /// The bounding box of the vertices.
@@ -169,9 +146,7 @@ pub fn vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
         .iter()
         .map(|p| {
             let next = slot_of_position.len();
-            *slot_of_position
-                .entry(p.to_array().map(f32::to_bits))
-                .or_insert(next)
+            *slot_of_position.entry(p.to_array().map(f32::to_bits)).or_insert(next)
         })
         .collect();
     let mut sums = vec![Vec3::ZERO; slot_of_position.len()];
@@ -236,19 +211,9 @@ mod tests {
         // Face in the x=0 plane (normal -x), one triangle: o, z, y.
         // Face in the y=0 plane (normal -y), two triangles: o, x, xz and o, xz, z.
         // Face in the z=0 plane (normal -z), three triangles: o, y, hy; o, hy, xy; o, xy, x.
-        let tris = vec![
-            [0, 2, 1],
-            [0, 3, 4],
-            [0, 4, 2],
-            [0, 1, 5],
-            [0, 5, 6],
-            [0, 6, 3],
-        ];
+        let tris = vec![[0, 2, 1], [0, 3, 4], [0, 4, 2], [0, 1, 5], [0, 5, 6], [0, 6, 3]];
         let n = vertex_normals(&p, &tris)[0];
-        assert!(
-            n.abs_diff_eq(-Vec3::ONE.normalize(), 1e-5),
-            "corner normal {n}"
-        );
+        assert!(n.abs_diff_eq(-Vec3::ONE.normalize(), 1e-5), "corner normal {n}");
     }
 
     #[test]
@@ -273,20 +238,11 @@ mod tests {
         let mut m = square();
         // Non-uniform scale then a rotation: normals need the inverse transpose.
         let tilt = Mat4::from_rotation_x(0.7) * Mat4::from_scale(Vec3::new(3.0, 1.0, 0.2));
-        let mut sloped = Mesh::new(
-            "slope",
-            vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, 1.0)],
-            vec![[0, 1, 2]],
-            None,
-            0,
-        );
+        let mut sloped =
+            Mesh::new("slope", vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, 1.0)], vec![[0, 1, 2]], None, 0);
         sloped.transform(&tilt);
         let face = sloped.face_normal(0);
-        assert!(
-            sloped.normals.iter().all(|n| n.abs_diff_eq(face, 1e-5)),
-            "{:?} vs {face}",
-            sloped.normals
-        );
+        assert!(sloped.normals.iter().all(|n| n.abs_diff_eq(face, 1e-5)), "{:?} vs {face}", sloped.normals);
         m.transform(&Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0)));
         assert_eq!(m.bounds().min.z, 5.0);
     }

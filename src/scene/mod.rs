@@ -3,6 +3,12 @@
 //! file and line.
 
 mod file;
+/// Bounds on the numbers a scene file (or the command line) may set.
+pub mod limits {
+    pub use super::file::{
+        MAX_DEPTH, MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_SPHERE_SUBDIVISIONS, MAX_TEAPOT_LEVEL,
+    };
+}
 pub mod mesh;
 pub mod obj;
 pub mod shapes;
@@ -34,6 +40,19 @@ pub struct ImageSettings {
     pub samples: u32,
 }
 
+/// How the scene file asks to be rendered (the `[render]` table).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderOptions {
+    /// The integrator.
+    pub integrator: crate::render::Integrator,
+    /// Longest chain of rays from the camera.
+    pub max_depth: u32,
+    /// Shadow-ray samples per area light at each shading point.
+    pub light_samples: u32,
+    /// Ambient radiance (the seed's classic look; zero by default).
+    pub ambient: Vec3,
+}
+
 /// Everything needed to render: geometry, materials, lights, camera.
 #[derive(Debug, Clone)]
 pub struct Scene {
@@ -43,6 +62,8 @@ pub struct Scene {
     pub camera: Camera,
     /// Image settings.
     pub image: ImageSettings,
+    /// Render settings.
+    pub render: RenderOptions,
     /// Materials; meshes refer to them by index.
     pub materials: Vec<Material>,
     /// Light sources.
@@ -72,12 +93,7 @@ impl Scene {
                 message: e.message().trim_end().replace('\n', "; "),
             }
         })?;
-        Builder {
-            text,
-            path,
-            warnings: Vec::new(),
-        }
-        .build(parsed)
+        Builder { text, path, warnings: Vec::new() }.build(parsed)
     }
 
     /// All meshes as an intersector reads them, in geometry-id order.
@@ -97,9 +113,7 @@ impl Scene {
 
     /// Bounding box of all geometry.
     pub fn bounds(&self) -> Bounds {
-        self.meshes
-            .iter()
-            .fold(Bounds::EMPTY, |b, m| b.union(m.bounds()))
+        self.meshes.iter().fold(Bounds::EMPTY, |b, m| b.union(m.bounds()))
     }
 }
 
@@ -112,22 +126,20 @@ struct Builder<'a> {
 
 impl Builder<'_> {
     fn error_at(&self, span: Range<usize>, message: impl Into<String>) -> Error {
-        Error::input_at(
-            self.path,
-            Location::from_offset(self.text, span.start),
-            message,
-        )
+        Error::input_at(self.path, Location::from_offset(self.text, span.start), message)
     }
 
     fn build(mut self, f: file::SceneFile) -> Result<Scene> {
         let cam = f.camera;
         let camera = Camera::new(cam.eye.0, cam.look_at.0, cam.up.0, cam.fov.0)
             .map_err(|msg| Error::input(self.path, format!("[camera]: {msg}")))?;
-        let image = ImageSettings {
-            width: f.image.width,
-            height: f.image.height,
-            samples: f.image.samples,
+        let render = RenderOptions {
+            integrator: f.render.integrator,
+            max_depth: f.render.max_depth,
+            light_samples: f.render.light_samples,
+            ambient: f.render.ambient.map_or(Vec3::ZERO, |a| a.0),
         };
+        let image = ImageSettings { width: f.image.width, height: f.image.height, samples: f.image.samples };
 
         let mut materials = Vec::with_capacity(f.materials.len());
         let mut material_ids = HashMap::new();
@@ -139,24 +151,13 @@ impl Builder<'_> {
 
         let mut lights = Vec::new();
         for l in &f.point_light {
-            lights.push(Light::Point {
-                position: l.position.0,
-                power: l.power.0,
-            });
+            lights.push(Light::Point { position: l.position.0, power: l.power.0 });
         }
         for l in &f.area_light {
             if l.u.get_ref().0.cross(l.v.0) == Vec3::ZERO {
-                return Err(self.error_at(
-                    l.u.span(),
-                    "the area light's edges u and v are zero or parallel",
-                ));
+                return Err(self.error_at(l.u.span(), "the area light's edges u and v are zero or parallel"));
             }
-            lights.push(Light::Area {
-                center: l.center.0,
-                u: l.u.get_ref().0,
-                v: l.v.0,
-                power: l.power.0,
-            });
+            lights.push(Light::Area { center: l.center.0, u: l.u.get_ref().0, v: l.v.0, power: l.power.0 });
         }
         for l in &f.spot_light {
             lights.push(self.spot_light(l)?);
@@ -170,10 +171,7 @@ impl Builder<'_> {
                 } else {
                     format!("defined materials: {}", known.join(", "))
                 };
-                self.error_at(
-                    name.span(),
-                    format!("unknown material `{}`; {hint}", name.get_ref()),
-                )
+                self.error_at(name.span(), format!("unknown material `{}`; {hint}", name.get_ref()))
             })
         };
 
@@ -192,9 +190,7 @@ impl Builder<'_> {
         }
         for (i, q) in f.quad.iter().enumerate() {
             if q.u.get_ref().0.cross(q.v.0) == Vec3::ZERO {
-                return Err(
-                    self.error_at(q.u.span(), "the quad's edges u and v are zero or parallel")
-                );
+                return Err(self.error_at(q.u.span(), "the quad's edges u and v are zero or parallel"));
             }
             let mut m = shapes::quad(
                 &format!("quad #{}", i + 1),
@@ -226,15 +222,8 @@ impl Builder<'_> {
                 ));
             }
             let name = format!("ring #{}", i + 1);
-            let mut m = shapes::ring(
-                &name,
-                r.base.0,
-                inner,
-                outer,
-                r.height.0,
-                r.segments,
-                lookup(&r.material)?,
-            );
+            let mut m =
+                shapes::ring(&name, r.base.0, inner, outer, r.height.0, r.segments, lookup(&r.material)?);
             m.transform(&transform_matrix(&r.transform));
             meshes.push(m);
         }
@@ -243,41 +232,32 @@ impl Builder<'_> {
                 None => teapot::parse_bpt(teapot::TEAPOT_BPT, Path::new("scenes/data/teapot.bpt"))?,
                 Some(file) => {
                     let bpt_path = self.relative(file);
-                    let text =
-                        std::fs::read_to_string(&bpt_path).map_err(|e| Error::io(&bpt_path, e))?;
+                    let text = std::fs::read_to_string(&bpt_path).map_err(|e| Error::io(&bpt_path, e))?;
                     teapot::parse_bpt(&text, &bpt_path)?
                 }
             };
             let (positions, indices) = teapot::tessellate(&patches, t.subdivisions as usize);
-            let mut m = Mesh::new(
-                format!("teapot #{}", i + 1),
-                positions,
-                indices,
-                None,
-                lookup(&t.material)?,
-            );
+            let mut m =
+                Mesh::new(format!("teapot #{}", i + 1), positions, indices, None, lookup(&t.material)?);
             // The data is z-up; scenes are y-up: (x, y, z) -> (x, z, -y).
             m.transform(
-                &(transform_matrix(&t.transform)
-                    * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2)),
+                &(transform_matrix(&t.transform) * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2)),
             );
             meshes.push(m);
         }
         for m in &f.mesh {
             let obj_path = self.relative(m.file.get_ref());
             let material = m.material.as_ref().map(&lookup).transpose()?;
-            let contents =
-                obj::load(&obj_path, material, materials.len()).map_err(|e| match e {
-                    Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self
-                        .error_at(
-                            m.file.span(),
-                            format!(
-                                "mesh file `{}` not found (paths are relative to the scene file)",
-                                obj_path.display()
-                            ),
-                        ),
-                    other => other,
-                })?;
+            let contents = obj::load(&obj_path, material, materials.len()).map_err(|e| match e {
+                Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self.error_at(
+                    m.file.span(),
+                    format!(
+                        "mesh file `{}` not found (paths are relative to the scene file)",
+                        obj_path.display()
+                    ),
+                ),
+                other => other,
+            })?;
             materials.extend(contents.materials);
             obj_warnings.extend(contents.warnings);
             let matrix = transform_matrix(&m.transform);
@@ -295,23 +275,20 @@ impl Builder<'_> {
                 "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[ring]], [[teapot]] or [[mesh]]",
             ));
         }
-        if let Some(m) = meshes
-            .iter()
-            .find(|m| !m.positions.iter().all(|p| p.is_finite()))
-        {
+        if let Some(m) = meshes.iter().find(|m| !m.positions.iter().all(|p| p.is_finite())) {
             return Err(Error::input(
                 self.path,
                 format!("{}: its transform makes vertices non-finite", m.name),
             ));
         }
         if lights.is_empty() {
-            self.warnings
-                .push("the scene has no lights; lit renders will be black".into());
+            self.warnings.push("the scene has no lights; lit renders will be black".into());
         }
         Ok(Scene {
             path: self.path.to_path_buf(),
             camera,
             image,
+            render,
             materials,
             lights,
             meshes,
@@ -338,10 +315,7 @@ impl Builder<'_> {
 
     fn spot_light(&self, l: &file::SpotLightSection) -> Result<Light> {
         let direction = l.direction.get_ref().0.try_normalize().ok_or_else(|| {
-            self.error_at(
-                l.direction.span(),
-                "the spot light's direction is the zero vector",
-            )
+            self.error_at(l.direction.span(), "the spot light's direction is the zero vector")
         })?;
         let cone = l.cone_angle.get_ref().0;
         if cone > 180.0 {
@@ -380,11 +354,7 @@ impl Builder<'_> {
 /// Scale, then rotate about x, y, z (degrees), then translate.
 fn transform_matrix(t: &file::TransformSection) -> Mat4 {
     let scale = t.scale.map_or(Vec3::ONE, |s| s.0);
-    let [rx, ry, rz] = t
-        .rotate
-        .map_or(Vec3::ZERO, |r| r.0)
-        .to_array()
-        .map(f32::to_radians);
+    let [rx, ry, rz] = t.rotate.map_or(Vec3::ZERO, |r| r.0).to_array().map(f32::to_radians);
     let rotation = Quat::from_euler(EulerRot::ZYX, rz, ry, rx);
     Mat4::from_scale_rotation_translation(scale, rotation, t.translate.map_or(Vec3::ZERO, |v| v.0))
 }

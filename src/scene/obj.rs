@@ -23,50 +23,29 @@ pub struct ObjContents {
 /// Loads `path`. Faces use `material_override` if given, otherwise their MTL
 /// material, numbered from `first_material` (where the caller will append
 /// `materials`).
-pub fn load(
-    path: &Path,
-    material_override: Option<usize>,
-    first_material: usize,
-) -> Result<ObjContents> {
+pub fn load(path: &Path, material_override: Option<usize>, first_material: usize) -> Result<ObjContents> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let options = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ..Default::default()
-    };
+    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let (models, mtl) =
-        tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &options, |mtl_path| {
-            tobj::load_mtl(dir.join(mtl_path))
-        })
-        .map_err(|e| {
-            let (location, detail) = match locate_problem(&text) {
-                Some((line, what)) => (Some(Location { line, column: 1 }), what),
-                None => (None, String::new()),
-            };
-            Error::Input {
-                path: path.to_path_buf(),
-                location,
-                message: format!("cannot read OBJ: {e}{detail}"),
-            }
-        })?;
+    let (models, mtl) = tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &options, |mtl_path| {
+        tobj::load_mtl(dir.join(mtl_path))
+    })
+    .map_err(|e| {
+        let (location, detail) = match locate_problem(&text) {
+            Some((line, what)) => (Some(Location { line, column: 1 }), what),
+            None => (None, String::new()),
+        };
+        Error::Input { path: path.to_path_buf(), location, message: format!("cannot read OBJ: {e}{detail}") }
+    })?;
 
-    let file_name = path
-        .file_name()
-        .map_or_else(|| "obj".into(), |n| n.to_string_lossy().into_owned());
+    let file_name = path.file_name().map_or_else(|| "obj".into(), |n| n.to_string_lossy().into_owned());
     let mut warnings = Vec::new();
     let materials = match (mtl, material_override) {
         (_, Some(_)) => Vec::new(),
-        (Ok(list), None) => list
-            .iter()
-            .map(|m| convert_material(m, &file_name, &mut warnings))
-            .collect(),
+        (Ok(list), None) => list.iter().map(|m| convert_material(m, &file_name, &mut warnings)).collect(),
         (Err(e), None) => {
             if models.iter().any(|m| m.mesh.material_id.is_some()) {
-                return Err(Error::input(
-                    path,
-                    format!("cannot read its MTL materials: {e}"),
-                ));
+                return Err(Error::input(path, format!("cannot read its MTL materials: {e}")));
             }
             Vec::new()
         }
@@ -79,27 +58,12 @@ pub fn load(
         if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
             return Err(Error::input(
                 path,
-                format!(
-                    "vertex {} of object `{}` is not finite",
-                    bad + 1,
-                    model.name
-                ),
+                format!("vertex {} of object `{}` is not finite", bad + 1, model.name),
             ));
         }
-        let indices: Vec<[u32; 3]> = m
-            .indices
-            .chunks_exact(3)
-            .map(|t| [t[0], t[1], t[2]])
-            .collect();
-        if indices
-            .iter()
-            .flatten()
-            .any(|&i| i as usize >= positions.len())
-        {
-            return Err(Error::input(
-                path,
-                format!("object `{}` has a face index out of range", model.name),
-            ));
+        let indices: Vec<[u32; 3]> = m.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+        if indices.iter().flatten().any(|&i| i as usize >= positions.len()) {
+            return Err(Error::input(path, format!("object `{}` has a face index out of range", model.name)));
         }
         let normals = (m.normals.len() == m.positions.len() && !m.normals.is_empty())
             .then(|| m.normals.chunks_exact(3).map(Vec3::from_slice).collect());
@@ -119,11 +83,7 @@ pub fn load(
         let name = format!("{file_name}:{}", model.name);
         meshes.push(Mesh::new(name, positions, indices, normals, material));
     }
-    Ok(ObjContents {
-        meshes,
-        materials,
-        warnings,
-    })
+    Ok(ObjContents { meshes, materials, warnings })
 }
 
 /// Maps an MTL material onto ours: `Kd` diffuse, `Ks`/`Ns` glossy lobe,
@@ -131,32 +91,20 @@ pub fn load(
 /// dissolve below 1) make the surface a dielectric with `Ni` as its index.
 /// Parts that sum above 1 are scaled down, with a warning.
 fn convert_material(m: &tobj::Material, file: &str, warnings: &mut Vec<String>) -> Material {
-    let rgb =
-        |c: Option<[f32; 3]>| Vec3::from_array(c.unwrap_or([0.0; 3])).clamp(Vec3::ZERO, Vec3::ONE);
+    let rgb = |c: Option<[f32; 3]>| Vec3::from_array(c.unwrap_or([0.0; 3])).clamp(Vec3::ZERO, Vec3::ONE);
     let mut out = Material {
         name: format!("{file}:{}", m.name),
         diffuse: rgb(m.diffuse),
         specular: rgb(m.specular),
-        phong_exponent: m
-            .shininess
-            .filter(|s| s.is_finite())
-            .unwrap_or(1.0)
-            .max(1.0),
-        ior: m
-            .optical_density
-            .filter(|n| n.is_finite() && *n > 0.0)
-            .unwrap_or(1.5),
+        phong_exponent: m.shininess.filter(|s| s.is_finite()).unwrap_or(1.0).max(1.0),
+        ior: m.optical_density.filter(|n| n.is_finite() && *n > 0.0).unwrap_or(1.5),
         ..Material::default()
     };
     let illum = m.illumination_model.unwrap_or(2);
     if matches!(illum, 3 | 5) {
         out.mirror = std::mem::take(&mut out.specular);
     }
-    let dissolve = m
-        .dissolve
-        .filter(|d| d.is_finite())
-        .unwrap_or(1.0)
-        .clamp(0.0, 1.0);
+    let dissolve = m.dissolve.filter(|d| d.is_finite()).unwrap_or(1.0).clamp(0.0, 1.0);
     if matches!(illum, 4 | 6 | 7 | 9) || dissolve < 1.0 {
         out.transmittance = Vec3::splat(if dissolve < 1.0 { 1.0 - dissolve } else { 1.0 });
         out.specular = Vec3::ZERO;
@@ -187,10 +135,7 @@ pub fn locate_problem(text: &str) -> Option<(usize, String)> {
         match words.next() {
             Some(kind @ ("v" | "vn" | "vt")) => {
                 if let Some(bad) = words.find(|w| w.parse::<f32>().is_err()) {
-                    return Some((
-                        line_no,
-                        format!(" (line {line_no}: `{kind}` has `{bad}`, not a number)"),
-                    ));
+                    return Some((line_no, format!(" (line {line_no}: `{kind}` has `{bad}`, not a number)")));
                 }
                 if kind == "v" {
                     vertices += 1;
@@ -199,10 +144,7 @@ pub fn locate_problem(text: &str) -> Option<(usize, String)> {
             Some("f") => {
                 let refs: Vec<&str> = words.collect();
                 if refs.len() < 3 {
-                    return Some((
-                        line_no,
-                        format!(" (line {line_no}: a face needs at least 3 vertices)"),
-                    ));
+                    return Some((line_no, format!(" (line {line_no}: a face needs at least 3 vertices)")));
                 }
                 for r in refs {
                     let first = r.split('/').next().unwrap_or("");
@@ -211,11 +153,16 @@ pub fn locate_problem(text: &str) -> Option<(usize, String)> {
                         Ok(k) => {
                             return Some((
                                 line_no,
-                                format!(" (line {line_no}: vertex {k} does not exist; {vertices} read so far)"),
+                                format!(
+                                    " (line {line_no}: vertex {k} does not exist; {vertices} read so far)"
+                                ),
                             ))
                         }
                         Err(_) => {
-                            return Some((line_no, format!(" (line {line_no}: `{r}` is not a vertex reference)")))
+                            return Some((
+                                line_no,
+                                format!(" (line {line_no}: `{r}` is not a vertex reference)"),
+                            ))
                         }
                     }
                 }
@@ -233,17 +180,8 @@ mod tests {
     #[test]
     fn locates_bad_vertices_and_faces() {
         assert_eq!(locate_problem("v 0 0 0\nv 1 x 0\n").map(|p| p.0), Some(2));
-        assert_eq!(
-            locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").map(|p| p.0),
-            Some(4)
-        );
-        assert_eq!(
-            locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -3\n"),
-            None
-        );
-        assert_eq!(
-            locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2//3 3\n"),
-            None
-        );
+        assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").map(|p| p.0), Some(4));
+        assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -3\n"), None);
+        assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2//3 3\n"), None);
     }
 }

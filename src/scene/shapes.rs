@@ -79,13 +79,7 @@ pub fn quad(name: &str, center: Vec3, u: Vec3, v: Vec3, material: usize) -> Mesh
     let corner = center - 0.5 * (u + v);
     let positions = vec![corner, corner + u, corner + u + v, corner + v];
     let normal = u.cross(v).normalize_or_zero();
-    Mesh::new(
-        name,
-        positions,
-        vec![[0, 1, 2], [0, 2, 3]],
-        Some(vec![normal; 4]),
-        material,
-    )
+    Mesh::new(name, positions, vec![[0, 1, 2], [0, 2, 3]], Some(vec![normal; 4]), material)
 }
 
 /// An axis-aligned box from `min` to `max` with flat, outward-facing sides
@@ -144,26 +138,15 @@ pub fn ring(
         }
         for k in 0..segments {
             let (a0, b0) = (start + 2 * k, start + 2 * k + 1);
-            let (a1, b1) = (
-                start + 2 * ((k + 1) % segments),
-                start + 2 * ((k + 1) % segments) + 1,
-            );
+            let (a1, b1) = (start + 2 * ((k + 1) % segments), start + 2 * ((k + 1) % segments) + 1);
             indices.extend([[a0, a1, b1], [a0, b1, b0]]);
         }
     };
     // Counter-clockwise seen from outside: outer wall faces out, inner wall in.
     band(&|k| outer * around(k), &|k| outer * around(k) + up, &around);
-    band(&|k| inner * around(k) + up, &|k| inner * around(k), &|k| {
-        -around(k)
-    });
-    band(
-        &|k| outer * around(k) + up,
-        &|k| inner * around(k) + up,
-        &|_| Vec3::Y,
-    );
-    band(&|k| inner * around(k), &|k| outer * around(k), &|_| {
-        -Vec3::Y
-    });
+    band(&|k| inner * around(k) + up, &|k| inner * around(k), &|k| -around(k));
+    band(&|k| outer * around(k) + up, &|k| inner * around(k) + up, &|_| Vec3::Y);
+    band(&|k| inner * around(k), &|k| outer * around(k), &|_| -Vec3::Y);
     Mesh::new(name, positions, indices, Some(normals), material)
 }
 
@@ -206,26 +189,17 @@ mod tests {
             let centroid = (a + b + c) / 3.0;
             let radial = Vec3::new(centroid.x, 0.0, centroid.z).normalize();
             let mid = 0.9 * radial + Vec3::Y * 0.25;
-            assert!(
-                r.face_normal(prim).dot(centroid - mid) > 0.0,
-                "triangle {prim} faces inward"
-            );
+            assert!(r.face_normal(prim).dot(centroid - mid) > 0.0, "triangle {prim} faces inward");
         }
         // Closed: every edge is shared by exactly two triangles, once each way.
         let mut directed = std::collections::HashSet::new();
         let key = |i: u32| r.positions[i as usize].to_array().map(f32::to_bits);
         for t in &r.indices {
             for e in 0..3 {
-                assert!(
-                    directed.insert((key(t[e]), key(t[(e + 1) % 3]))),
-                    "edge used twice one way"
-                );
+                assert!(directed.insert((key(t[e]), key(t[(e + 1) % 3]))), "edge used twice one way");
             }
         }
-        assert!(
-            directed.iter().all(|(a, b)| directed.contains(&(*b, *a))),
-            "open edge"
-        );
+        assert!(directed.iter().all(|(a, b)| directed.contains(&(*b, *a))), "open edge");
     }
 
     #[test]

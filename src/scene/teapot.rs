@@ -23,16 +23,11 @@ pub fn parse_bpt(text: &str, path: &Path) -> Result<Vec<Patch>> {
     let mut tokens = Tokens::new(text, path);
     let count = tokens.integer("the patch count")?;
     if count == 0 {
-        return Err(
-            tokens.error_here("the file declares 0 patches; a .bpt file needs at least one")
-        );
+        return Err(tokens.error_here("the file declares 0 patches; a .bpt file needs at least one"));
     }
     let mut patches = Vec::with_capacity(count.min(1 << 20));
     for patch in 1..=count {
-        let (du, dv) = (
-            tokens.integer("a patch degree")?,
-            tokens.integer("a patch degree")?,
-        );
+        let (du, dv) = (tokens.integer("a patch degree")?, tokens.integer("a patch degree")?);
         if (du, dv) != (3, 3) {
             return Err(tokens.error_at_last(format!(
                 "patch {patch} has degrees {du} {dv}; only bicubic patches (3 3) are supported"
@@ -65,15 +60,9 @@ struct Tokens<'a> {
 impl<'a> Tokens<'a> {
     fn new(text: &'a str, path: &'a Path) -> Self {
         let iter: Box<dyn Iterator<Item = (usize, &'a str)>> = Box::new(
-            text.split_ascii_whitespace()
-                .map(move |t| (t.as_ptr() as usize - text.as_ptr() as usize, t)),
+            text.split_ascii_whitespace().map(move |t| (t.as_ptr() as usize - text.as_ptr() as usize, t)),
         );
-        Tokens {
-            text,
-            path,
-            iter: iter.peekable(),
-            last: 0,
-        }
+        Tokens { text, path, iter: iter.peekable(), last: 0 }
     }
 
     fn next_raw(&mut self) -> Option<(usize, &'a str)> {
@@ -91,9 +80,9 @@ impl<'a> Tokens<'a> {
 
     fn integer(&mut self, what: &str) -> Result<usize> {
         let token = self.next_token(what)?;
-        token.parse().map_err(|_| {
-            self.error_at_last(format!("expected {what} (a whole number), found `{token}`"))
-        })
+        token
+            .parse()
+            .map_err(|_| self.error_at_last(format!("expected {what} (a whole number), found `{token}`")))
     }
 
     fn number(&mut self) -> Result<f32> {
@@ -105,19 +94,11 @@ impl<'a> Tokens<'a> {
     }
 
     fn error_at_last(&self, message: impl Into<String>) -> Error {
-        Error::input_at(
-            self.path,
-            Location::from_offset(self.text, self.last),
-            message,
-        )
+        Error::input_at(self.path, Location::from_offset(self.text, self.last), message)
     }
 
     fn error_here(&self, message: impl Into<String>) -> Error {
-        Error::input_at(
-            self.path,
-            Location::from_offset(self.text, self.text.trim_end().len()),
-            message,
-        )
+        Error::input_at(self.path, Location::from_offset(self.text, self.text.trim_end().len()), message)
     }
 }
 
@@ -127,12 +108,7 @@ impl<'a> Tokens<'a> {
 fn bernstein(i: usize, n: usize) -> [f32; 4] {
     let t = i as f32 / n as f32;
     let s = (n - i) as f32 / n as f32;
-    [
-        (s * s) * s,
-        (s * s) * (3.0 * t),
-        (3.0 * s) * (t * t),
-        (t * t) * t,
-    ]
+    [(s * s) * s, (s * s) * (3.0 * t), (3.0 * s) * (t * t), (t * t) * t]
 }
 
 /// `w0 p0 + w1 p1 + w2 p2 + w3 p3`, summed in an order that is the same for
@@ -165,15 +141,7 @@ pub fn tessellate(patches: &[Patch], level: usize) -> (Vec<Vec3>, Vec<[u32; 3]>)
         for wv in &weights {
             for wu in &weights {
                 let rows = [0, 1, 2, 3].map(|r| {
-                    blend(
-                        *wu,
-                        [
-                            patch[4 * r],
-                            patch[4 * r + 1],
-                            patch[4 * r + 2],
-                            patch[4 * r + 3],
-                        ],
-                    )
+                    blend(*wu, [patch[4 * r], patch[4 * r + 1], patch[4 * r + 2], patch[4 * r + 3]])
                 });
                 // Adding +0.0 turns -0.0 into +0.0 so both weld together.
                 let p = blend(*wv, rows) + Vec3::ZERO;
@@ -217,13 +185,8 @@ mod tests {
     #[test]
     fn errors_name_the_line() {
         let p = Path::new("t.bpt");
-        let err = parse_bpt("1\n3 3\n0 0 0\n1 x 0\n", p)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.starts_with("t.bpt:4:3:") && err.contains("`x`"),
-            "{err}"
-        );
+        let err = parse_bpt("1\n3 3\n0 0 0\n1 x 0\n", p).unwrap_err().to_string();
+        assert!(err.starts_with("t.bpt:4:3:") && err.contains("`x`"), "{err}");
         let err = parse_bpt("1\n3 3\n0 0 0\n", p).unwrap_err().to_string();
         assert!(err.contains("file ends"), "{err}");
         let err = parse_bpt("1\n2 3\n", p).unwrap_err().to_string();

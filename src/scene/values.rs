@@ -21,11 +21,7 @@ fn number_or_triple<'de, D: Deserializer<'de>>(
     impl V {
         fn checked<E: de::Error>(&self, x: f64) -> Result<f32, E> {
             let narrow = x as f32;
-            let x = if x.is_finite() && !narrow.is_finite() {
-                f64::INFINITY
-            } else {
-                x
-            };
+            let x = if x.is_finite() && !narrow.is_finite() { f64::INFINITY } else { x };
             match (self.check)(x) {
                 None => Ok(narrow),
                 Some(what) => Err(E::custom(format!("{what}, found {x}"))),
@@ -59,9 +55,7 @@ fn number_or_triple<'de, D: Deserializer<'de>>(
         fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec3, A::Error> {
             let mut out = [0.0f32; 3];
             for (i, slot) in out.iter_mut().enumerate() {
-                let x: f64 = seq
-                    .next_element()?
-                    .ok_or_else(|| de::Error::invalid_length(i, &self))?;
+                let x: f64 = seq.next_element()?.ok_or_else(|| de::Error::invalid_length(i, &self))?;
                 *slot = self.checked(x)?;
             }
             if seq.next_element::<de::IgnoredAny>()?.is_some() {
@@ -70,10 +64,7 @@ fn number_or_triple<'de, D: Deserializer<'de>>(
             Ok(Vec3::from_array(out))
         }
     }
-    d.deserialize_any(V {
-        allow_single,
-        check,
-    })
+    d.deserialize_any(V { allow_single, check })
 }
 
 fn finite(x: f64) -> Option<&'static str> {
@@ -131,10 +122,7 @@ vector_type!(
 );
 
 /// A single number checked by one of the rules above.
-fn scalar<'de, D: Deserializer<'de>>(
-    d: D,
-    check: fn(f64) -> Option<&'static str>,
-) -> Result<f32, D::Error> {
+fn scalar<'de, D: Deserializer<'de>>(d: D, check: fn(f64) -> Option<&'static str>) -> Result<f32, D::Error> {
     let x = f64::deserialize(d)?;
     match check(x) {
         None if (x as f32).is_finite() => Ok(x as f32),
@@ -165,9 +153,7 @@ impl<'de> Deserialize<'de> for Positive {
 pub fn whole_number<'de, D: Deserializer<'de>>(d: D, min: u32, max: u32) -> Result<u32, D::Error> {
     let n = i64::deserialize(d)?;
     if n < min as i64 || n > max as i64 {
-        return Err(de::Error::custom(format!(
-            "expected a whole number from {min} to {max}, found {n}"
-        )));
+        return Err(de::Error::custom(format!("expected a whole number from {min} to {max}, found {n}")));
     }
     Ok(n as u32)
 }

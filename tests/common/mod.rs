@@ -40,8 +40,5 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 
 /// Runs the `caustix` binary with `args`.
 pub fn caustix(args: &[&std::ffi::OsStr]) -> Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_caustix"))
-        .args(args)
-        .output()
-        .unwrap()
+    std::process::Command::new(env!("CARGO_BIN_EXE_caustix")).args(args).output().unwrap()
 }

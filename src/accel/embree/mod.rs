@@ -42,15 +42,10 @@ extern "C" fn record_error(user: *mut c_void, code: ffi::RTCError, message: *con
             String::new()
         } else {
             // SAFETY: Embree passes a NUL-terminated string valid for this call.
-            unsafe { CStr::from_ptr(message) }
-                .to_string_lossy()
-                .into_owned()
+            unsafe { CStr::from_ptr(message) }.to_string_lossy().into_owned()
         };
         if let Ok(mut first) = sink.first.lock() {
-            first.get_or_insert(Error::Embree {
-                code: error_name(code),
-                message,
-            });
+            first.get_or_insert(Error::Embree { code: error_name(code), message });
         }
     });
 }
@@ -161,17 +156,10 @@ impl EmbreeIntersector {
 
     fn attach(&self, id: u32, mesh: &TriangleView<'_>) -> Result<()> {
         let vertex_count = mesh.positions.len();
-        if let Some(bad) = mesh
-            .indices
-            .iter()
-            .flatten()
-            .find(|&&i| i as usize >= vertex_count)
-        {
+        if let Some(bad) = mesh.indices.iter().flatten().find(|&&i| i as usize >= vertex_count) {
             return Err(Error::Embree {
                 code: "RTC_ERROR_INVALID_ARGUMENT",
-                message: format!(
-                    "mesh {id}: vertex index {bad} out of range ({vertex_count} vertices)"
-                ),
+                message: format!("mesh {id}: vertex index {bad} out of range ({vertex_count} vertices)"),
             });
         }
         // SAFETY: `device.raw` is live; the geometry is released below after attaching.
@@ -303,41 +291,22 @@ mod tests {
     #[test]
     fn hits_report_embree_barycentrics_and_ccw_normal() {
         let (p, i) = unit_triangle();
-        let accel = EmbreeIntersector::build(&[TriangleView {
-            positions: &p,
-            indices: &i,
-        }])
-        .unwrap();
-        let hit = accel
-            .intersect(&Ray::new(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z))
-            .unwrap();
+        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
+        let hit = accel.intersect(&Ray::new(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z)).unwrap();
         assert!((hit.t - 2.0).abs() < 1e-6);
         assert!((hit.u - 0.25).abs() < 1e-6 && (hit.v - 0.5).abs() < 1e-6);
         assert_eq!((hit.geom_id, hit.prim_id), (0, 0));
         // (v1 - v0) x (v2 - v0) = X x Y = +Z.
-        assert!(
-            hit.ng.normalize().abs_diff_eq(Vec3::Z, 1e-6),
-            "ng = {}",
-            hit.ng
-        );
+        assert!(hit.ng.normalize().abs_diff_eq(Vec3::Z, 1e-6), "ng = {}", hit.ng);
         assert!(accel.occluded(&Ray::new(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z)));
     }
 
     #[test]
     fn misses_and_t_max_are_respected() {
         let (p, i) = unit_triangle();
-        let accel = EmbreeIntersector::build(&[TriangleView {
-            positions: &p,
-            indices: &i,
-        }])
-        .unwrap();
-        assert!(accel
-            .intersect(&Ray::new(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z))
-            .is_none());
-        let short = Ray {
-            t_max: 0.5,
-            ..Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z)
-        };
+        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
+        assert!(accel.intersect(&Ray::new(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z)).is_none());
+        let short = Ray { t_max: 0.5, ..Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z) };
         assert!(accel.intersect(&short).is_none());
         assert!(!accel.occluded(&short));
     }
@@ -346,10 +315,7 @@ mod tests {
     fn out_of_range_indices_are_an_error_not_a_crash() {
         let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
         let bad = [[0u32, 1, 7]];
-        let err = EmbreeIntersector::build(&[TriangleView {
-            positions: &p,
-            indices: &bad,
-        }]);
+        let err = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &bad }]);
         assert!(matches!(err, Err(Error::Embree { .. })));
     }
 
@@ -377,20 +343,14 @@ mod tests {
     fn queries_from_many_threads_agree() {
         use rayon::prelude::*;
         let (p, i) = unit_triangle();
-        let accel = EmbreeIntersector::build(&[TriangleView {
-            positions: &p,
-            indices: &i,
-        }])
-        .unwrap();
+        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
         let hits: usize = (0..10_000)
             .into_par_iter()
             .filter(|k| {
                 // Offsets keep every point off the diagonal edge x + y = 1.
                 let x = (k % 100) as f32 / 100.0 + 0.0025;
                 let y = (k / 100) as f32 / 100.0 + 0.0025;
-                accel
-                    .intersect(&Ray::new(Vec3::new(x, y, 1.0), -Vec3::Z))
-                    .is_some()
+                accel.intersect(&Ray::new(Vec3::new(x, y, 1.0), -Vec3::Z)).is_some()
             })
             .count();
         // Points of a 100 x 100 grid with x + y < 1, i.e. i + j <= 99.
