@@ -163,13 +163,15 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
     let stats = rendered.stats;
     let seconds = stats.elapsed.as_secs_f64();
     let total_rays = stats.rays + stats.shadow_rays;
+    // Previews trace one centred ray per pixel whatever the sample count.
+    let spp = if settings.integrator == Integrator::Whitted { settings.samples } else { 1 };
     eprintln!(
         "{}: {}x{} {:?}, {} spp in {seconds:.2} s: {} rays + {} shadow rays ({:.2} Mrays/s) on {} threads with {}",
         output.display(),
         settings.width,
         settings.height,
         settings.integrator,
-        settings.samples,
+        spp,
         stats.rays,
         stats.shadow_rays,
         total_rays as f64 / seconds.max(1e-9) / 1e6,
