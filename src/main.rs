@@ -9,8 +9,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use caustix::accel::embree::EmbreeIntersector;
-use caustix::accel::Intersector;
+use caustix::accel::Backend;
 use caustix::render::{Components, Integrator, RenderSettings};
 use caustix::scene::{limits, Scene};
 
@@ -47,6 +46,9 @@ struct RenderArgs {
     /// Integrator (overrides the scene file's [render] integrator).
     #[arg(long, value_enum)]
     integrator: Option<Integrator>,
+    /// Ray intersector (overrides the scene file's [render] backend; default embree).
+    #[arg(long, value_enum)]
+    backend: Option<Backend>,
     /// Image width in pixels (overrides the scene file).
     #[arg(long)]
     width: Option<u32>,
@@ -139,7 +141,9 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         .num_threads(args.threads.unwrap_or(0))
         .build()
         .context("starting worker threads")?;
-    let accel = EmbreeIntersector::build(&scene.triangle_views()).context("building the Embree scene")?;
+    let backend = args.backend.unwrap_or(scene.render.backend);
+    let accel =
+        caustix::accel::build(backend, &scene.triangle_views()).context("building the ray intersector")?;
 
     let pixels = settings.width as u64 * settings.height as u64;
     let bar = if std::io::stderr().is_terminal() { ProgressBar::new(pixels) } else { ProgressBar::hidden() };
@@ -150,7 +154,8 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         .expect("valid template")
         .progress_chars("=> "),
     );
-    let rendered = pool.install(|| caustix::render::render(&scene, &accel, &settings, &|n| bar.inc(n)));
+    let rendered =
+        pool.install(|| caustix::render::render(&scene, accel.as_ref(), &settings, &|n| bar.inc(n)));
     bar.finish_and_clear();
 
     let final_image = rendered.image("final").expect("final is a component");
@@ -228,7 +233,8 @@ fn info(path: &Path) -> anyhow::Result<()> {
     for l in &scene.lights {
         println!("  {}", l.describe());
     }
-    let accel = EmbreeIntersector::build(&scene.triangle_views()).context("building the Embree scene")?;
+    let accel = caustix::accel::build(scene.render.backend, &scene.triangle_views())
+        .context("building the ray intersector")?;
     println!("backend   {}", accel.name());
     Ok(())
 }

@@ -7,15 +7,17 @@ use std::f32::consts::PI;
 use std::path::Path;
 
 use caustix::accel::embree::EmbreeIntersector;
-use caustix::accel::Intersector;
+use caustix::accel::{Backend, Intersector};
 use caustix::render::{render, Integrator, RenderSettings, Rendered};
 use caustix::scene::Scene;
 use common::{caustix, write, QUAD_SCENE};
 use glam::Vec3;
 
-/// The backends every image test runs on (the native BVH joins with its issue).
+/// The backends every image test runs on.
 fn backends(scene: &Scene) -> Vec<Box<dyn Intersector>> {
-    vec![Box::new(EmbreeIntersector::build(&scene.triangle_views()).unwrap())]
+    [Backend::Embree, Backend::Native]
+        .map(|b| caustix::accel::build(b, &scene.triangle_views()).unwrap())
+        .into()
 }
 
 fn whitted(scene: &Scene, accel: &dyn Intersector, samples: u32) -> Rendered {
@@ -136,6 +138,25 @@ fn a_mirror_shows_what_it_faces_times_its_reflectance() {
             }
         }
     }
+}
+
+#[test]
+fn both_backends_render_the_cornell_box_alike() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
+    let scene = Scene::load(&path).unwrap();
+    let settings = RenderSettings { width: 64, height: 64, samples: 4, ..RenderSettings::from_scene(&scene) };
+    let [a, b] = [Backend::Embree, Backend::Native].map(|backend| {
+        let accel = caustix::accel::build(backend, &scene.triangle_views()).unwrap();
+        render(&scene, accel.as_ref(), &settings, &|_| {}).image("final").unwrap()
+    });
+    // Same random streams, so only ties on edges can make pixels differ.
+    let differing =
+        a.pixels.iter().zip(&b.pixels).filter(|(p, q)| (**p - **q).abs().max_element() > 1e-4).count();
+    let mean =
+        |img: &caustix::render::image::Image| img.pixels.iter().sum::<Vec3>() / img.pixels.len() as f32;
+    eprintln!("pixels differing: {differing} of {}", a.pixels.len());
+    assert!(differing * 100 <= a.pixels.len(), "{differing} pixels differ");
+    assert!((mean(&a) - mean(&b)).abs().max_element() < 1e-3 * mean(&a).max_element());
 }
 
 #[test]

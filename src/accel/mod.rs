@@ -2,12 +2,37 @@
 //! whichever acceleration structure answers its queries.
 //!
 //! [`Intersector`] is implemented by Embree ([`embree::EmbreeIntersector`], the
-//! default) and later by the native BVH. Both report hits in Embree's
+//! default) and by the native BVH ([`bvh::Bvh`]). Both report hits in Embree's
 //! convention so that shading code never knows which one answered.
 
+pub mod bvh;
 pub mod embree;
 
 use glam::Vec3;
+
+use crate::error::Result;
+use embree::TriangleView;
+
+/// Which intersector answers ray queries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// Intel Embree, as the system provides it (the default).
+    Embree,
+    /// The pure-Rust BVH in this crate.
+    Native,
+}
+
+/// Builds the chosen intersector over `meshes` (mesh `i` is geometry `i`).
+pub fn build(backend: Backend, meshes: &[TriangleView<'_>]) -> Result<Box<dyn Intersector>> {
+    Ok(match backend {
+        Backend::Embree => Box::new(embree::EmbreeIntersector::build(meshes)?),
+        Backend::Native => {
+            embree::check_indices(meshes)?;
+            Box::new(bvh::Bvh::build(meshes))
+        }
+    })
+}
 
 /// A ray `origin + t * dir` for `t` in `[0, t_max]`.
 ///
@@ -61,6 +86,22 @@ pub trait Intersector: Send + Sync {
 
     /// Whether anything is hit with `0 <= t <= ray.t_max` (shadow rays).
     fn occluded(&self, ray: &Ray) -> bool;
+
+    /// [`intersect`](Intersector::intersect) for many rays at once, writing
+    /// `hits[i]` for `rays[i]`. Backends override this where handing over a
+    /// batch is faster (Embree's ray streams).
+    fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = self.intersect(ray);
+        }
+    }
+
+    /// [`occluded`](Intersector::occluded) for many rays at once.
+    fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
+        for (ray, o) in rays.iter().zip(occluded) {
+            *o = self.occluded(ray);
+        }
+    }
 
     /// A short name for logs and benchmarks, e.g. `"embree 3.13.5"`.
     fn name(&self) -> String;

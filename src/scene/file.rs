@@ -106,6 +106,8 @@ fn samples<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 pub struct RenderSection {
     #[serde(default = "default_integrator")]
     pub integrator: crate::render::Integrator,
+    #[serde(default = "default_backend")]
+    pub backend: crate::accel::Backend,
     #[serde(default = "default_max_depth", deserialize_with = "max_depth")]
     pub max_depth: u32,
     #[serde(default = "default_light_samples", deserialize_with = "light_samples")]
@@ -118,6 +120,7 @@ impl Default for RenderSection {
     fn default() -> Self {
         RenderSection {
             integrator: default_integrator(),
+            backend: default_backend(),
             max_depth: default_max_depth(),
             light_samples: default_light_samples(),
             ambient: None,
@@ -127,6 +130,10 @@ impl Default for RenderSection {
 
 fn default_integrator() -> crate::render::Integrator {
     crate::render::Integrator::Whitted
+}
+
+fn default_backend() -> crate::accel::Backend {
+    crate::accel::Backend::Embree
 }
 
 fn default_max_depth() -> u32 {

@@ -45,6 +45,8 @@ pub struct ImageSettings {
 pub struct RenderOptions {
     /// The integrator.
     pub integrator: crate::render::Integrator,
+    /// The intersector.
+    pub backend: crate::accel::Backend,
     /// Longest chain of rays from the camera.
     pub max_depth: u32,
     /// Shadow-ray samples per area light at each shading point.
@@ -135,6 +137,7 @@ impl Builder<'_> {
             .map_err(|msg| Error::input(self.path, format!("[camera]: {msg}")))?;
         let render = RenderOptions {
             integrator: f.render.integrator,
+            backend: f.render.backend,
             max_depth: f.render.max_depth,
             light_samples: f.render.light_samples,
             ambient: f.render.ambient.map_or(Vec3::ZERO, |a| a.0),

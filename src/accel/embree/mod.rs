@@ -26,6 +26,21 @@ pub struct TriangleView<'a> {
     pub indices: &'a [[u32; 3]],
 }
 
+/// Checks that every index names a vertex of its mesh: out-of-range indices
+/// would make Embree (or the native BVH) read out of bounds.
+pub fn check_indices(meshes: &[TriangleView<'_>]) -> Result<()> {
+    for (id, mesh) in meshes.iter().enumerate() {
+        let vertex_count = mesh.positions.len();
+        if let Some(bad) = mesh.indices.iter().flatten().find(|&&i| i as usize >= vertex_count) {
+            return Err(Error::Embree {
+                code: "RTC_ERROR_INVALID_ARGUMENT",
+                message: format!("mesh {id}: vertex index {bad} out of range ({vertex_count} vertices)"),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Where Embree's error callback leaves the first error it reports.
 #[derive(Default)]
 struct ErrorSink {
@@ -138,6 +153,7 @@ impl EmbreeIntersector {
     ///
     /// Returns an error (never undefined behaviour) if an index is out of range.
     pub fn build(meshes: &[TriangleView<'_>]) -> Result<Self> {
+        check_indices(meshes)?;
         let device = Device::new()?;
         // SAFETY: `device.raw` is a live device.
         let scene = unsafe { ffi::rtcNewScene(device.raw) };
@@ -156,12 +172,6 @@ impl EmbreeIntersector {
 
     fn attach(&self, id: u32, mesh: &TriangleView<'_>) -> Result<()> {
         let vertex_count = mesh.positions.len();
-        if let Some(bad) = mesh.indices.iter().flatten().find(|&&i| i as usize >= vertex_count) {
-            return Err(Error::Embree {
-                code: "RTC_ERROR_INVALID_ARGUMENT",
-                message: format!("mesh {id}: vertex index {bad} out of range ({vertex_count} vertices)"),
-            });
-        }
         // SAFETY: `device.raw` is live; the geometry is released below after attaching.
         let geom = unsafe { ffi::rtcNewGeometry(self.device.raw, ffi::RTC_GEOMETRY_TYPE_TRIANGLE) };
         self.device.check()?;
@@ -240,30 +250,40 @@ impl Drop for EmbreeIntersector {
     }
 }
 
+/// Embree's ray-and-hit record for `ray`, with the hit marked empty.
+fn new_rayhit(ray: &Ray) -> ffi::RTCRayHit {
+    ffi::RTCRayHit {
+        ray: EmbreeIntersector::ray(ray),
+        hit: ffi::RTCHit {
+            geomID: ffi::RTC_INVALID_GEOMETRY_ID,
+            primID: ffi::RTC_INVALID_GEOMETRY_ID,
+            instID: [ffi::RTC_INVALID_GEOMETRY_ID; ffi::RTC_MAX_INSTANCE_LEVEL_COUNT as usize],
+            ..Default::default()
+        },
+    }
+}
+
+/// Our hit from Embree's record, if it hit anything.
+fn hit_of(rayhit: &ffi::RTCRayHit) -> Option<Hit> {
+    let h = &rayhit.hit;
+    (h.geomID != ffi::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
+        t: rayhit.ray.tfar,
+        u: h.u,
+        v: h.v,
+        geom_id: h.geomID,
+        prim_id: h.primID,
+        ng: Vec3::new(h.Ng_x, h.Ng_y, h.Ng_z),
+    })
+}
+
 impl Intersector for EmbreeIntersector {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut context = ffi::new_intersect_context();
-        let mut rayhit = ffi::RTCRayHit {
-            ray: Self::ray(ray),
-            hit: ffi::RTCHit {
-                geomID: ffi::RTC_INVALID_GEOMETRY_ID,
-                primID: ffi::RTC_INVALID_GEOMETRY_ID,
-                instID: [ffi::RTC_INVALID_GEOMETRY_ID; ffi::RTC_MAX_INSTANCE_LEVEL_COUNT as usize],
-                ..Default::default()
-            },
-        };
+        let mut rayhit = new_rayhit(ray);
         // SAFETY: the scene is committed; `context` and `rayhit` are valid,
         // and `RTCRayHit` is 16-byte aligned by its bindgen `repr(align(16))`.
         unsafe { ffi::rtcIntersect1(self.scene, &mut context, &mut rayhit) };
-        let h = rayhit.hit;
-        (h.geomID != ffi::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
-            t: rayhit.ray.tfar,
-            u: h.u,
-            v: h.v,
-            geom_id: h.geomID,
-            prim_id: h.primID,
-            ng: Vec3::new(h.Ng_x, h.Ng_y, h.Ng_z),
-        })
+        hit_of(&rayhit)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
@@ -273,6 +293,51 @@ impl Intersector for EmbreeIntersector {
         unsafe { ffi::rtcOccluded1(self.scene, &mut context, &mut r) };
         // Embree marks an occluded ray by setting tfar to -infinity.
         r.tfar == f32::NEG_INFINITY
+    }
+
+    /// One call into Embree's ray-stream API (`rtcIntersect1M`) per batch.
+    fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
+        let mut records: Vec<ffi::RTCRayHit> = rays.iter().map(new_rayhit).collect();
+        let mut context = ffi::new_intersect_context();
+        for chunk in records.chunks_mut(u32::MAX as usize) {
+            // SAFETY: `chunk` is a live, 16-byte aligned array (Vec honours the
+            // type's alignment) of `chunk.len()` records with the given stride.
+            unsafe {
+                ffi::rtcIntersect1M(
+                    self.scene,
+                    &mut context,
+                    chunk.as_mut_ptr(),
+                    chunk.len() as u32,
+                    std::mem::size_of::<ffi::RTCRayHit>(),
+                )
+            };
+        }
+        for (record, hit) in records.iter().zip(hits) {
+            *hit = hit_of(record);
+        }
+    }
+
+    /// One call into Embree's ray-stream API (`rtcOccluded1M`) per batch.
+    fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
+        assert_eq!(rays.len(), occluded.len(), "one result slot per ray");
+        let mut records: Vec<ffi::RTCRay> = rays.iter().map(Self::ray).collect();
+        let mut context = ffi::new_intersect_context();
+        for chunk in records.chunks_mut(u32::MAX as usize) {
+            // SAFETY: as in `intersect_batch`, for an array of `RTCRay`.
+            unsafe {
+                ffi::rtcOccluded1M(
+                    self.scene,
+                    &mut context,
+                    chunk.as_mut_ptr(),
+                    chunk.len() as u32,
+                    std::mem::size_of::<ffi::RTCRay>(),
+                )
+            };
+        }
+        for (record, o) in records.iter().zip(occluded) {
+            *o = record.tfar == f32::NEG_INFINITY;
+        }
     }
 
     fn name(&self) -> String {
@@ -356,6 +421,31 @@ mod tests {
         // Points of a 100 x 100 grid with x + y < 1, i.e. i + j <= 99.
         let expected = (0..10_000).filter(|k| (k % 100) + (k / 100) <= 99).count();
         assert_eq!(hits, expected);
+    }
+
+    #[test]
+    fn batches_agree_with_single_rays() {
+        let (p, i) = unit_triangle();
+        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
+        let rays: Vec<Ray> = (0..1000)
+            .map(|k| {
+                let (x, y) = ((k % 40) as f32 / 30.0 - 0.1, (k / 40) as f32 / 20.0 - 0.1);
+                Ray {
+                    t_max: if k % 7 == 0 { 0.5 } else { f32::INFINITY },
+                    ..Ray::new(Vec3::new(x, y, 1.0), -Vec3::Z)
+                }
+            })
+            .collect();
+        let mut hits = vec![None; rays.len()];
+        accel.intersect_batch(&rays, &mut hits);
+        let mut occluded = vec![false; rays.len()];
+        accel.occluded_batch(&rays, &mut occluded);
+        for ((ray, hit), o) in rays.iter().zip(&hits).zip(&occluded) {
+            assert_eq!(*hit, accel.intersect(ray));
+            assert_eq!(*o, accel.occluded(ray));
+            assert_eq!(*o, hit.is_some());
+        }
+        assert!(hits.iter().any(Option::is_some) && hits.iter().any(Option::is_none));
     }
 
     #[test]
