@@ -12,6 +12,7 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod accel;
+pub mod bench;
 pub mod error;
 pub mod light;
 pub mod material;

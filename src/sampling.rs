@@ -4,7 +4,7 @@
 //! index, so results never depend on which thread did the work or in which
 //! order: an image is bit-identical whatever the thread count.
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
 /// PCG32 (O'Neill 2014): small, fast, statistically good, and cheap to seed
 /// into independent streams.
@@ -64,6 +64,33 @@ pub fn stratified(index: u32, count: u32, rng: &mut Rng) -> Vec2 {
     (cell + rng.uniform2()) / Vec2::new(columns as f32, rows as f32)
 }
 
+/// A cosine-weighted direction about +z from two uniforms (Malley's method:
+/// a uniform point on the disk lifted to the hemisphere); pdf `cos / pi`.
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let r = u.x.sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).max(0.0).sqrt())
+}
+
+/// A uniformly distributed unit vector; pdf `1 / (4 pi)`.
+pub fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// `local` (with +z as the axis) turned so that +z becomes the unit vector `n`
+/// (orthonormal basis of Duff et al. 2017, no branches on `n` near the poles).
+pub fn around(n: Vec3, local: Vec3) -> Vec3 {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let s = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+    local.x * t + local.y * s + local.z * n
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -103,6 +130,44 @@ mod tests {
             sum += x as f64;
         }
         assert!((sum / n as f64 - 0.5).abs() < 0.005);
+    }
+
+    #[test]
+    fn cosine_hemisphere_has_the_cosine_distribution() {
+        // E[cos] under pdf cos/pi is 2/3; every sample is a unit vector up.
+        let mut r = Rng::new(2, 2);
+        let n = 100_000;
+        let mut mean_cos = 0.0f64;
+        for _ in 0..n {
+            let d = cosine_hemisphere(r.uniform2());
+            assert!((d.length() - 1.0).abs() < 1e-5 && d.z >= 0.0);
+            mean_cos += d.z as f64 / n as f64;
+        }
+        assert!((mean_cos - 2.0 / 3.0).abs() < 0.005, "{mean_cos}");
+    }
+
+    #[test]
+    fn uniform_sphere_is_centred() {
+        let mut r = Rng::new(4, 4);
+        let n = 100_000;
+        let mean: Vec3 = (0..n).map(|_| uniform_sphere(r.uniform2())).sum::<Vec3>() / n as f32;
+        assert!(mean.length() < 0.01, "{mean}");
+    }
+
+    #[test]
+    fn around_maps_z_to_the_normal_orthonormally() {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.3, -0.5, 0.81).normalize(),
+            Vec3::new(0.0, 1e-7, -1.0).normalize(),
+        ] {
+            assert!(around(n, Vec3::Z).abs_diff_eq(n, 1e-6));
+            let (x, y) = (around(n, Vec3::X), around(n, Vec3::Y));
+            assert!(x.dot(y).abs() < 1e-6 && x.dot(n).abs() < 1e-6 && y.dot(n).abs() < 1e-6);
+            assert!((x.length() - 1.0).abs() < 1e-6 && (y.length() - 1.0).abs() < 1e-6);
+        }
     }
 
     #[test]

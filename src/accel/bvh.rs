@@ -13,7 +13,7 @@
 //!
 //! Hits are reported exactly as Embree reports them (see [`Hit`]).
 
-use glam::Vec3;
+use glam::{Mat3A, Vec3, Vec3A};
 use rayon::prelude::*;
 
 use super::embree::TriangleView;
@@ -162,45 +162,63 @@ impl Bvh {
     /// Walks the tree front to back, calling `visit` on each triangle of each
     /// leaf whose box the ray enters before `t_max`. `visit` returns the new
     /// `t_max` (smaller after a hit) or `None` to stop the walk at once.
+    ///
+    /// Both children's boxes are tested at their parent; the walk descends
+    /// into the nearer one and stacks the other with its entry distance, so
+    /// subtrees behind a hit found meanwhile are skipped when popped.
     fn traverse<'s>(&'s self, ray: &Ray, mut visit: impl FnMut(&'s Triangle, f32) -> Option<f32>) {
-        if self.nodes.is_empty() {
+        let Some(root) = self.nodes.first() else { return };
+        let slab = SlabRay::new(ray);
+        let mut t_max = ray.t_max;
+        if slab.enter(root, t_max).is_none() {
             return;
         }
-        let inv = ray.dir.recip();
-        let negative = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
-        let mut t_max = ray.t_max;
-        let mut stack = [0u32; 64];
+        let mut stack = [(0u32, 0f32); 64];
         let mut top = 0;
         let mut index = 0usize;
         loop {
             let node = &self.nodes[index];
-            if slab_test(node, ray.origin, inv, t_max) {
-                if node.count > 0 {
-                    let first = node.offset as usize;
-                    for triangle in &self.triangles[first..first + node.count as usize] {
-                        match visit(triangle, t_max) {
-                            Some(t) => t_max = t,
-                            None => return,
-                        }
+            if node.count > 0 {
+                let first = node.offset as usize;
+                for triangle in &self.triangles[first..first + node.count as usize] {
+                    match visit(triangle, t_max) {
+                        Some(t) => t_max = t,
+                        None => return,
                     }
-                } else {
-                    // Visit the near child first, remember the far one.
-                    let (near, far) = if negative[node.axis as usize] {
-                        (node.offset as usize, index + 1)
-                    } else {
-                        (index + 1, node.offset as usize)
-                    };
-                    stack[top] = far as u32;
-                    top += 1;
-                    index = near;
-                    continue;
+                }
+            } else {
+                let (a, b) = (index + 1, node.offset as usize);
+                match (slab.enter(&self.nodes[a], t_max), slab.enter(&self.nodes[b], t_max)) {
+                    (Some(ta), Some(tb)) => {
+                        let ((near, _), far) = if ta <= tb { ((a, ta), (b, tb)) } else { ((b, tb), (a, ta)) };
+                        stack[top] = (far.0 as u32, far.1);
+                        top += 1;
+                        index = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        index = a;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        index = b;
+                        continue;
+                    }
+                    (None, None) => {}
                 }
             }
-            if top == 0 {
-                return;
+            // Pop the nearest pending subtree still in front of the closest hit.
+            loop {
+                if top == 0 {
+                    return;
+                }
+                top -= 1;
+                let (next, entry) = stack[top];
+                if entry <= t_max {
+                    index = next as usize;
+                    break;
+                }
             }
-            top -= 1;
-            index = stack[top] as usize;
         }
     }
 }
@@ -244,31 +262,57 @@ impl Intersector for Bvh {
     }
 }
 
-/// Whether the ray enters the node's box between 0 and `t_max`. The far
-/// distance is widened by `1 + 2 gamma(3)` to cover rounding (Pharr et al.).
-/// A ray parallel to an axis that lies exactly in the plane of one of the
-/// box's faces gives `0 * inf = NaN` there: it is inside that slab for every
-/// `t`, so that axis sets no limit (`f32::min` alone would turn the NaN into
-/// the other bound, +inf, and miss the box).
-#[inline]
-fn slab_test(node: &Node, origin: Vec3, inv: Vec3, t_max: f32) -> bool {
-    let t0 = (Vec3::from_array(node.min) - origin) * inv;
-    let t1 = (Vec3::from_array(node.max) - origin) * inv;
-    let in_plane = t0.is_nan_mask() | t1.is_nan_mask();
-    let near = Vec3::select(in_plane, Vec3::NEG_INFINITY, t0.min(t1));
-    let far = Vec3::select(in_plane, Vec3::INFINITY, t0.max(t1));
-    let enter = near.x.max(near.y).max(near.z).max(0.0);
-    let exit = far.x.min(far.y).min(far.z).min(t_max) * (1.0 + 2.0 * GAMMA3);
-    enter <= exit
+/// The per-ray part of the box test, in SIMD lanes.
+///
+/// The slab distances are `(bound - origin) * inv`, whose rounding the
+/// `gamma(3)` widening covers. (The cheaper `bound * inv - origin * inv`
+/// cancels catastrophically when a bound is close to the origin's coordinate
+/// and once let a ray aimed at a vertex of the bunny slip past its leaf's box.)
+struct SlabRay {
+    inv: Vec3A,
+    /// Lanes where the direction is zero (so `inv` is infinite).
+    parallel: glam::BVec3A,
+    origin: Vec3A,
+}
+
+impl SlabRay {
+    fn new(ray: &Ray) -> SlabRay {
+        let inv = Vec3A::from(ray.dir).recip();
+        SlabRay { inv, parallel: !inv.is_finite_mask(), origin: Vec3A::from(ray.origin) }
+    }
+
+    /// Where the ray enters the node's box, if it does between 0 and `t_max`.
+    /// The far distance is widened by `1 + 2 gamma(3)` to cover rounding
+    /// (Pharr et al.). On an axis the ray is parallel to, the slab either
+    /// contains the origin (no limit, even when the origin lies exactly in a
+    /// face's plane, where `0 * inf` would be NaN) or the ray misses.
+    #[inline]
+    fn enter(&self, node: &Node, t_max: f32) -> Option<f32> {
+        let (min, max) = (Vec3A::from_array(node.min), Vec3A::from_array(node.max));
+        let t0 = (min - self.origin) * self.inv;
+        let t1 = (max - self.origin) * self.inv;
+        let inside = self.origin.cmpge(min) & self.origin.cmple(max);
+        let near = Vec3A::select(self.parallel, Vec3A::NEG_INFINITY, t0.min(t1));
+        let far = Vec3A::select(self.parallel, Vec3A::INFINITY, t0.max(t1));
+        if (self.parallel & !inside).any() {
+            return None;
+        }
+        let enter = near.max_element().max(0.0);
+        let exit = far.min_element().min(t_max) * (1.0 + 2.0 * GAMMA3);
+        (enter <= exit).then_some(enter)
+    }
 }
 
 /// The per-ray part of the watertight test: the ray is sheared so that it
 /// runs along +z, then each triangle is tested in 2D with edge functions
 /// whose signs are consistent across shared edges.
+///
+/// The shear is a matrix whose rows each hold one 1, one `-S` and one 0
+/// (and `Sz` alone), so `shear * p` rounds exactly as the scalar
+/// `p[kx] - Sx p[kz]` of the paper does: adding a zero product is exact.
 struct WatertightRay {
-    origin: Vec3,
-    axes: [usize; 3],
-    shear: Vec3,
+    origin: Vec3A,
+    shear: Mat3A,
 }
 
 impl WatertightRay {
@@ -287,27 +331,30 @@ impl WatertightRay {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let shear = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-        WatertightRay { origin: ray.origin, axes: [kx, ky, kz], shear }
+        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        let axis = |k: usize| Vec3A::from(Vec3::AXES[k]);
+        let rows = [axis(kx) - sx * axis(kz), axis(ky) - sy * axis(kz), sz * axis(kz)];
+        // The rows' zero entries must be exact zeros (not -0 * x products with
+        // a rounding): they are, because `axis` has exact 0s and 1s.
+        let shear = Mat3A::from_cols(rows[0], rows[1], rows[2]).transpose();
+        WatertightRay { origin: Vec3A::from(ray.origin), shear }
     }
 
     /// `(t, u, v)` with Embree's barycentrics, if the triangle is hit at
     /// `0 <= t <= t_max`.
     #[inline]
     fn intersect(&self, v: &[Vec3; 3], t_max: f32) -> Option<(f32, f32, f32)> {
-        let [kx, ky, kz] = self.axes;
-        let s = self.shear;
-        let (a, b, c) = (v[0] - self.origin, v[1] - self.origin, v[2] - self.origin);
-        let (ax, ay) = (a[kx] - s.x * a[kz], a[ky] - s.y * a[kz]);
-        let (bx, by) = (b[kx] - s.x * b[kz], b[ky] - s.y * b[kz]);
-        let (cx, cy) = (c[kx] - s.x * c[kz], c[ky] - s.y * c[kz]);
+        let a = self.shear * (Vec3A::from(v[0]) - self.origin);
+        let b = self.shear * (Vec3A::from(v[1]) - self.origin);
+        let c = self.shear * (Vec3A::from(v[2]) - self.origin);
         // Edge functions: U weights vertex 0, V vertex 1, W vertex 2.
-        let mut u = cx * by - cy * bx;
-        let mut vv = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
+        let mut u = c.x * b.y - c.y * b.x;
+        let mut vv = a.x * c.y - a.y * c.x;
+        let mut w = b.x * a.y - b.y * a.x;
         // Exactly on an edge in single precision: decide in double.
         if u == 0.0 || vv == 0.0 || w == 0.0 {
-            let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+            let (ax, ay, bx, by, cx, cy) =
+                (a.x as f64, a.y as f64, b.x as f64, b.y as f64, c.x as f64, c.y as f64);
             u = (cx * by - cy * bx) as f32;
             vv = (ax * cy - ay * cx) as f32;
             w = (bx * ay - by * ax) as f32;
@@ -319,8 +366,7 @@ impl WatertightRay {
         if det == 0.0 {
             return None;
         }
-        let (az, bz, cz) = (s.z * a[kz], s.z * b[kz], s.z * c[kz]);
-        let t_scaled = u * az + vv * bz + w * cz;
+        let t_scaled = u * a.z + vv * b.z + w * c.z;
         // t = t_scaled / det must lie in [0, t_max]; compare without dividing.
         let sign = det.signum();
         if t_scaled * sign < 0.0 || t_scaled * sign > t_max * det.abs() {
@@ -516,18 +562,16 @@ mod tests {
     #[test]
     fn rays_lying_in_a_box_face_plane_are_inside_the_slab() {
         let node = Node { min: [0.0, 0.0, 2.0], offset: 0, max: [1.0, 1.0, 3.0], count: 1, axis: 0, _pad: 0 };
-        for z in [2.0, 3.0] {
-            // Parallel to the z faces and exactly in one of their planes.
-            let dir = Vec3::new(1.0, 0.5, 0.0);
-            let origin = Vec3::new(-1.0, 0.0, z);
-            assert!(slab_test(&node, origin, dir.recip(), f32::INFINITY), "in the plane z = {z}");
+        let dir = Vec3::new(1.0, 0.5, 0.0);
+        for z in [2.0, 2.5, 3.0] {
+            // Parallel to the z faces, in or between their planes.
+            let ray = Ray::new(Vec3::new(-1.0, 0.0, z), dir);
+            assert_eq!(SlabRay::new(&ray).enter(&node, f32::INFINITY), Some(1.0), "z = {z}");
         }
-        assert!(!slab_test(
-            &node,
-            Vec3::new(-1.0, 0.0, 3.5),
-            Vec3::new(1.0, 0.5, 0.0).recip(),
-            f32::INFINITY
-        ));
+        let above = Ray::new(Vec3::new(-1.0, 0.0, 3.5), dir);
+        assert_eq!(SlabRay::new(&above).enter(&node, f32::INFINITY), None);
+        let short = Ray { t_max: 0.5, ..Ray::new(Vec3::new(-1.0, 0.0, 2.0), dir) };
+        assert_eq!(SlabRay::new(&short).enter(&node, short.t_max), None);
     }
 
     #[test]

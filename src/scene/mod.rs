@@ -80,12 +80,22 @@ impl Scene {
     /// Reads and validates a scene file. Relative paths inside it (OBJ and
     /// `.bpt` files) are taken relative to the file's folder.
     pub fn load(path: &Path) -> Result<Scene> {
+        Scene::load_with(path, &Overrides::default())
+    }
+
+    /// [`Scene::load`] with some of the file's settings replaced.
+    pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        Scene::from_toml(&text, path)
+        Scene::from_toml_with(&text, path, overrides)
     }
 
     /// Parses scene text; `path` names it in errors and anchors relative paths.
     pub fn from_toml(text: &str, path: &Path) -> Result<Scene> {
+        Scene::from_toml_with(text, path, &Overrides::default())
+    }
+
+    /// [`Scene::from_toml`] with some of the file's settings replaced.
+    pub fn from_toml_with(text: &str, path: &Path, overrides: &Overrides) -> Result<Scene> {
         let parsed: file::SceneFile = toml::from_str(text).map_err(|e| {
             let location = e.span().map(|s| Location::from_offset(text, s.start));
             Error::Input {
@@ -95,7 +105,7 @@ impl Scene {
                 message: e.message().trim_end().replace('\n', "; "),
             }
         })?;
-        Builder { text, path, warnings: Vec::new() }.build(parsed)
+        Builder { text, path, overrides, warnings: Vec::new() }.build(parsed)
     }
 
     /// All meshes as an intersector reads them, in geometry-id order.
@@ -119,10 +129,18 @@ impl Scene {
     }
 }
 
+/// Settings that replace what a scene file says (for benchmarks at scale).
+#[derive(Debug, Clone, Default)]
+pub struct Overrides {
+    /// Quads per patch edge for every `[[teapot]]`.
+    pub teapot_subdivisions: Option<u32>,
+}
+
 /// Turns a parsed file into a [`Scene`], keeping the text for error locations.
 struct Builder<'a> {
     text: &'a str,
     path: &'a Path,
+    overrides: &'a Overrides,
     warnings: Vec<String>,
 }
 
@@ -239,7 +257,8 @@ impl Builder<'_> {
                     teapot::parse_bpt(&text, &bpt_path)?
                 }
             };
-            let (positions, indices) = teapot::tessellate(&patches, t.subdivisions as usize);
+            let level = self.overrides.teapot_subdivisions.unwrap_or(t.subdivisions);
+            let (positions, indices) = teapot::tessellate(&patches, level as usize);
             let mut m =
                 Mesh::new(format!("teapot #{}", i + 1), positions, indices, None, lookup(&t.material)?);
             // The data is z-up; scenes are y-up: (x, y, z) -> (x, z, -y).

@@ -276,6 +276,55 @@ fn hit_of(rayhit: &ffi::RTCRayHit) -> Option<Hit> {
     })
 }
 
+/// Rays already in Embree's own record format, for measuring what calling
+/// Embree directly costs without our conversions (see [`EmbreeIntersector::intersect_raw`]).
+pub struct RawRays(Vec<ffi::RTCRayHit>);
+
+impl RawRays {
+    /// Converts rays once, up front, as a C program would hold them.
+    pub fn new(rays: &[Ray]) -> RawRays {
+        RawRays(rays.iter().map(new_rayhit).collect())
+    }
+
+    /// Resets the hit records so the same rays can be traced again.
+    pub fn reset(&mut self, rays: &[Ray]) {
+        for (record, ray) in self.0.iter_mut().zip(rays) {
+            *record = new_rayhit(ray);
+        }
+    }
+
+    /// How many rays have recorded a hit.
+    pub fn hits(&self) -> usize {
+        self.0.iter().filter(|r| r.hit.geomID != ffi::RTC_INVALID_GEOMETRY_ID).count()
+    }
+}
+
+impl EmbreeIntersector {
+    /// Traces `rays` with `rtcIntersect1` straight on Embree's records, in
+    /// parallel chunks, with no conversion to or from our types: the baseline
+    /// for the cost of the wrapper.
+    pub fn intersect_raw(&self, rays: &mut RawRays) {
+        use rayon::prelude::*;
+        let scene = SceneHandle(self.scene);
+        rays.0.par_chunks_mut(1024).for_each(|chunk| {
+            let scene = &scene;
+            let mut context = ffi::new_intersect_context();
+            for record in chunk {
+                // SAFETY: the scene is committed and outlives this call; each
+                // record is a valid, 16-byte aligned `RTCRayHit`.
+                unsafe { ffi::rtcIntersect1(scene.0, &mut context, record) };
+            }
+        });
+    }
+}
+
+/// A committed scene handle that may cross threads (see the `Sync` impl of
+/// [`EmbreeIntersector`]: queries on a committed scene are thread-safe).
+struct SceneHandle(ffi::RTCScene);
+// SAFETY: only used for `rtcIntersect1` on a committed scene, which Embree
+// allows from any number of threads at once.
+unsafe impl Sync for SceneHandle {}
+
 impl Intersector for EmbreeIntersector {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut context = ffi::new_intersect_context();
