@@ -18,7 +18,7 @@ use crate::accel::{Hit, Intersector, Ray};
 use crate::light::Light;
 use crate::render::surface::SurfacePoint;
 use crate::sampling::{around, cosine_hemisphere, Rng};
-use crate::scene::Scene;
+use crate::scene::{Overrides, Scene};
 
 /// Rays handed over per task (and per batch call).
 const CHUNK: usize = 1024;
@@ -153,6 +153,76 @@ pub fn measure(embree: &EmbreeIntersector, native: &Bvh, sets: &RaySets, repeats
         out.push(result);
     }
     out
+}
+
+/// Loads `path`, builds both intersectors, measures every method on every
+/// ray set, and returns the report as Markdown (what `caustix bench rays` prints).
+pub fn ray_report(
+    path: &std::path::Path,
+    overrides: &Overrides,
+    width: u32,
+    height: u32,
+    repeats: usize,
+) -> crate::Result<String> {
+    use std::fmt::Write;
+    let mib = |bytes: usize| bytes as f64 / (1024.0 * 1024.0);
+
+    let start = Instant::now();
+    let scene = Scene::load_with(path, overrides)?;
+    let load = start.elapsed().as_secs_f64();
+    let mesh_bytes: usize = scene.meshes.iter().map(|m| m.positions.len() * 24 + m.indices.len() * 12).sum();
+
+    let before = resident_bytes();
+    let start = Instant::now();
+    let embree = EmbreeIntersector::build(&scene.triangle_views())?;
+    let embree_build = start.elapsed().as_secs_f64();
+    let embree_bytes = resident_bytes().saturating_sub(before);
+
+    let start = Instant::now();
+    let native = Bvh::build(&scene.triangle_views());
+    let native_build = start.elapsed().as_secs_f64();
+    let stats = native.stats();
+
+    let sets = RaySets::new(&scene, &embree, width, height);
+    let results = measure(&embree, &native, &sets, repeats);
+
+    let mut out = String::new();
+    let w = &mut out;
+    // Writing to a String cannot fail.
+    let _ =
+        writeln!(w, "scene {}: {} triangles, loaded in {load:.2} s", path.display(), scene.triangle_count());
+    let _ =
+        writeln!(w, "threads: {}, rays per task: {CHUNK}, best of {repeats}", rayon::current_num_threads());
+    let _ = writeln!(
+        w,
+        "mesh (positions + normals + indices): {:.1} MiB; {}: build {embree_build:.3} s, +{:.1} MiB resident; \
+         native bvh: build {native_build:.3} s, {:.1} MiB ({} nodes, depth {})",
+        mib(mesh_bytes),
+        embree.name(),
+        mib(embree_bytes),
+        mib(stats.bytes),
+        stats.nodes,
+        stats.depth
+    );
+    let _ = writeln!(w);
+    let header = METHODS.map(|m| format!("{m} (Mrays/s)")).join(" | ");
+    let _ = writeln!(w, "| rays | count | {header} | native / embree single |");
+    let _ = writeln!(w, "|---|---:|{}---:|", "---:|".repeat(METHODS.len()));
+    for r in &results {
+        let cells = r.mrays.map(|m| m.map_or("n/a".to_string(), |v| format!("{v:.2}")));
+        let ratio = match (r.mrays[3], r.mrays[0]) {
+            (Some(n), Some(e)) => format!("{:.2}", n / e),
+            _ => "n/a".into(),
+        };
+        let _ = writeln!(w, "| {} | {} | {} | {ratio} |", r.kind, r.rays, cells.join(" | "));
+        let counts: Vec<usize> = r.hits.iter().flatten().copied().collect();
+        if counts.iter().any(|&c| c != counts[0]) {
+            let _ = writeln!(w, "|   hits differ between methods: {:?} |", r.hits);
+        }
+    }
+    let _ = writeln!(w);
+    let _ = writeln!(w, "peak resident memory: {:.1} MiB", mib(peak_resident_bytes()));
+    Ok(out)
 }
 
 /// Resident memory of this process in bytes (Linux; 0 elsewhere).

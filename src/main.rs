@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use caustix::accel::{Backend, Intersector};
+use caustix::accel::Backend;
 use caustix::render::{Components, Integrator, RenderSettings};
 use caustix::scene::{limits, Scene};
 
@@ -223,68 +223,13 @@ fn bench_rays(
     height: u32,
     repeats: usize,
 ) -> anyhow::Result<()> {
-    use caustix::bench::{measure, peak_resident_bytes, resident_bytes, RaySets, METHODS};
-    use std::time::Instant;
     if let Some(level) = teapot_subdivisions {
         in_range("--teapot-subdivisions", level, 1, limits::MAX_TEAPOT_LEVEL)?;
     }
     let width = in_range("--width", width, 1, limits::MAX_IMAGE_SIDE)?;
     let height = in_range("--height", height, 1, limits::MAX_IMAGE_SIDE)?;
-    let mib = |bytes: usize| bytes as f64 / (1024.0 * 1024.0);
-
-    let start = Instant::now();
     let overrides = caustix::scene::Overrides { teapot_subdivisions };
-    let scene = Scene::load_with(path, &overrides)?;
-    let load = start.elapsed().as_secs_f64();
-    let triangles = scene.triangle_count();
-    let mesh_bytes: usize = scene.meshes.iter().map(|m| m.positions.len() * 24 + m.indices.len() * 12).sum();
-
-    let before = resident_bytes();
-    let start = Instant::now();
-    let embree = caustix::accel::embree::EmbreeIntersector::build(&scene.triangle_views())?;
-    let embree_build = start.elapsed().as_secs_f64();
-    let embree_bytes = resident_bytes().saturating_sub(before);
-
-    let start = Instant::now();
-    let native = caustix::accel::bvh::Bvh::build(&scene.triangle_views());
-    let native_build = start.elapsed().as_secs_f64();
-    let stats = native.stats();
-
-    let sets = RaySets::new(&scene, &embree, width, height);
-    let results = measure(&embree, &native, &sets, repeats);
-
-    println!("scene {}: {triangles} triangles, loaded in {load:.2} s", path.display());
-    println!("threads: {}, rays per task: 1024, best of {repeats}", rayon::current_num_threads());
-    println!(
-        "mesh (positions + normals + indices): {:.1} MiB; embree {}: build {embree_build:.3} s, +{:.1} MiB resident; \
-         native bvh: build {native_build:.3} s, {:.1} MiB ({} nodes, depth {})",
-        mib(mesh_bytes),
-        embree.name(),
-        mib(embree_bytes),
-        mib(stats.bytes),
-        stats.nodes,
-        stats.depth
-    );
-    println!();
-    println!(
-        "| rays | count | {} | native / embree single |",
-        METHODS.map(|m| format!("{m} (Mrays/s)")).join(" | ")
-    );
-    println!("|---|---:|{}---:|", "---:|".repeat(METHODS.len()));
-    for r in &results {
-        let cells = r.mrays.map(|m| m.map_or("n/a".to_string(), |v| format!("{v:.2}")));
-        let ratio = match (r.mrays[3], r.mrays[0]) {
-            (Some(n), Some(e)) => format!("{:.2}", n / e),
-            _ => "n/a".into(),
-        };
-        println!("| {} | {} | {} | {ratio} |", r.kind, r.rays, cells.join(" | "));
-        let counts: Vec<usize> = r.hits.iter().flatten().copied().collect();
-        if counts.iter().any(|&c| c != counts[0]) {
-            println!("|   hits differ between methods: {:?} |", r.hits);
-        }
-    }
-    println!();
-    println!("peak resident memory: {:.1} MiB", mib(peak_resident_bytes()));
+    print!("{}", caustix::bench::ray_report(path, &overrides, width, height, repeats)?);
     Ok(())
 }
 

@@ -112,3 +112,26 @@ fn shipped_scenes_load() {
         assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
     }
 }
+
+#[test]
+fn cli_bench_rays_prints_a_table_for_every_method() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
+    let run = caustix(&[
+        "bench".as_ref(),
+        "rays".as_ref(),
+        scene.as_os_str(),
+        "--width".as_ref(),
+        "32".as_ref(),
+        "--height".as_ref(),
+        "32".as_ref(),
+        "--repeats".as_ref(),
+        "1".as_ref(),
+    ]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    for row in ["| primary | 1024 |", "| shadow |", "| diffuse |", "embree direct", "native bvh: build"] {
+        assert!(stdout.contains(row), "missing `{row}` in:\n{stdout}");
+    }
+    // All methods found the same hits (the report flags any difference).
+    assert!(!stdout.contains("hits differ"), "{stdout}");
+}
