@@ -341,7 +341,7 @@ impl WatertightRay {
     }
 
     /// `(t, u, v)` with Embree's barycentrics, if the triangle is hit at
-    /// `0 <= t <= t_max`.
+    /// `0 < t <= t_max`.
     #[inline]
     fn intersect(&self, v: &[Vec3; 3], t_max: f32) -> Option<(f32, f32, f32)> {
         let a = self.shear * (Vec3A::from(v[0]) - self.origin);
@@ -367,9 +367,9 @@ impl WatertightRay {
             return None;
         }
         let t_scaled = u * a.z + vv * b.z + w * c.z;
-        // t = t_scaled / det must lie in [0, t_max]; compare without dividing.
+        // t = t_scaled / det must lie in (0, t_max]; compare without dividing.
         let sign = det.signum();
-        if t_scaled * sign < 0.0 || t_scaled * sign > t_max * det.abs() {
+        if t_scaled * sign <= 0.0 || t_scaled * sign > t_max * det.abs() {
             return None;
         }
         let inv = 1.0 / det;

@@ -34,7 +34,7 @@ pub fn build(backend: Backend, meshes: &[TriangleView<'_>]) -> Result<Box<dyn In
     })
 }
 
-/// A ray `origin + t * dir` for `t` in `[0, t_max]`.
+/// A ray `origin + t * dir` for `t` in `(0, t_max]`.
 ///
 /// `dir` need not be normalised; `t` is measured in units of `|dir|`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,10 +81,13 @@ pub struct Hit {
 ///
 /// Implementations must be safe to query from many threads at once.
 pub trait Intersector: Send + Sync {
-    /// The closest hit with `0 <= t <= ray.t_max`, if any.
+    /// The closest hit with `0 < t <= ray.t_max`, if any. A hit at exactly
+    /// `t = 0` is the surface the ray starts on (e.g. a ray leaving a wall at
+    /// its corner with the ceiling, offset along the wall's normal, starts in
+    /// the ceiling's plane) and never counts, as in pbrt.
     fn intersect(&self, ray: &Ray) -> Option<Hit>;
 
-    /// Whether anything is hit with `0 <= t <= ray.t_max` (shadow rays).
+    /// Whether anything is hit with `0 < t <= ray.t_max` (shadow rays).
     fn occluded(&self, ray: &Ray) -> bool;
 
     /// [`intersect`](Intersector::intersect) for many rays at once, writing

@@ -230,7 +230,8 @@ impl EmbreeIntersector {
             org_x: ray.origin.x,
             org_y: ray.origin.y,
             org_z: ray.origin.z,
-            tnear: 0.0,
+            // Embree accepts t >= tnear; the smallest positive tnear makes that t > 0.
+            tnear: f32::MIN_POSITIVE,
             dir_x: ray.dir.x,
             dir_y: ray.dir.y,
             dir_z: ray.dir.z,
@@ -413,6 +414,19 @@ mod tests {
         // (v1 - v0) x (v2 - v0) = X x Y = +Z.
         assert!(hit.ng.normalize().abs_diff_eq(Vec3::Z, 1e-6), "ng = {}", hit.ng);
         assert!(accel.occluded(&Ray::new(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z)));
+    }
+
+    #[test]
+    fn a_hit_at_the_origin_does_not_count() {
+        // The ray starts exactly in the triangle's plane, inside it.
+        let (p, i) = unit_triangle();
+        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
+        let native = crate::accel::bvh::Bvh::build(&[TriangleView { positions: &p, indices: &i }]);
+        let ray = Ray::new(Vec3::new(0.25, 0.25, 0.0), Vec3::new(0.1, 0.2, -1.0));
+        for backend in [&accel as &dyn Intersector, &native] {
+            assert_eq!(backend.intersect(&ray), None, "{}", backend.name());
+            assert!(!backend.occluded(&ray), "{}", backend.name());
+        }
     }
 
     #[test]
