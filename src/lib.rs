@@ -6,6 +6,8 @@
 //!   only `unsafe` code, in `accel::embree`).
 //! - [`material`], [`light`], [`optics`]: what surfaces and lights are, and
 //!   the Fresnel/Snell formulas.
+//! - [`photon`]: photon tracing, the global and caustic maps (kiddo kd-trees),
+//!   radiance estimates.
 //! - [`render`]: camera, images, integrators.
 
 #![warn(missing_docs)]
@@ -17,6 +19,7 @@ pub mod error;
 pub mod light;
 pub mod material;
 pub mod optics;
+pub mod photon;
 pub mod render;
 pub mod sampling;
 pub mod scene;

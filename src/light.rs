@@ -10,6 +10,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use crate::accel::Ray;
+use crate::sampling::{around, cosine_hemisphere, uniform_sphere};
 
 /// One sample of the light arriving at a point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -121,6 +122,53 @@ impl Light {
         (a.abs() <= 0.5 && b.abs() <= 0.5).then(|| (t, power / (PI * normal.length())))
     }
 
+    /// Emits one photon from the uniforms `u` (position on the light) and `v`
+    /// (direction): the ray it leaves along, and the power it carries times
+    /// the number of photons emitted (so divide by that number).
+    ///
+    /// Point lights emit uniformly over the sphere, area lights from a uniform
+    /// point with cosine-distributed directions (their emission profile), spot
+    /// lights uniformly within the cone, weighted by the fall-off. In every
+    /// case the expected power over many photons is exactly `power()`.
+    pub fn emit(&self, u: Vec2, v: Vec2) -> (Ray, Vec3) {
+        match *self {
+            Light::Point { position, power } => (Ray::new(position, uniform_sphere(v)), power),
+            Light::Area { center, u: eu, v: ev, power } => {
+                let origin = center + (u.x - 0.5) * eu + (u.y - 0.5) * ev;
+                let dir = around(eu.cross(ev).normalize(), cosine_hemisphere(v));
+                (Ray::new(origin, dir), power)
+            }
+            Light::Spot { position, direction, cone_angle, falloff_start, power } => {
+                // Uniform in solid angle over the cone (pdf 1 / omega), so the
+                // photon carries intensity / pdf = I(theta) * omega.
+                let cos_total = cone_angle.cos();
+                let cos_t = 1.0 - v.x * (1.0 - cos_total);
+                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+                let phi = std::f32::consts::TAU * v.y;
+                let dir = around(direction, Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t));
+                let omega = 2.0 * PI * (1.0 - cos_total);
+                let intensity = spot_peak_intensity(power, cone_angle, falloff_start)
+                    * spot_falloff(cos_t, cone_angle, falloff_start);
+                (Ray::new(position, dir), intensity * omega)
+            }
+        }
+    }
+
+    /// For point and spot lights: where they are and their radiant intensity
+    /// (W/sr per channel) towards the unit direction `dir` (`None` for area
+    /// lights, and for spots outside their cone).
+    pub fn intensity(&self, dir: Vec3) -> Option<(Vec3, Vec3)> {
+        match *self {
+            Light::Point { position, power } => Some((position, power / (4.0 * PI))),
+            Light::Spot { position, direction, cone_angle, falloff_start, power } => {
+                let falloff = spot_falloff(direction.dot(dir), cone_angle, falloff_start);
+                (falloff > 0.0)
+                    .then(|| (position, spot_peak_intensity(power, cone_angle, falloff_start) * falloff))
+            }
+            Light::Area { .. } => None,
+        }
+    }
+
     /// A short description for `caustix info`.
     pub fn describe(&self) -> String {
         let w = self.power();
@@ -220,6 +268,40 @@ mod tests {
         }
         assert!((flux - 5.0).abs() < 0.01, "flux {flux}");
         assert!(light.sample_incident(Vec3::new(1.0, -1.0, 0.0), Vec2::ZERO).is_none(), "45 deg is outside");
+    }
+
+    #[test]
+    fn emitted_photons_carry_the_lights_power() {
+        let lights = [
+            Light::Point { position: Vec3::ZERO, power: Vec3::new(1.0, 2.0, 3.0) },
+            Light::Area { center: Vec3::Y, u: Vec3::X, v: Vec3::Z, power: Vec3::splat(7.0) },
+            Light::Spot {
+                position: Vec3::ZERO,
+                direction: Vec3::Y,
+                cone_angle: 40f32.to_radians(),
+                falloff_start: 25f32.to_radians(),
+                power: Vec3::splat(5.0),
+            },
+        ];
+        for light in lights {
+            let mut rng = Rng::new(9, 9);
+            let n = 200_000;
+            let mut total = Vec3::ZERO;
+            for _ in 0..n {
+                let (ray, power) = light.emit(rng.uniform2(), rng.uniform2());
+                assert!((ray.dir.length() - 1.0).abs() < 1e-5);
+                if let Light::Area { .. } = light {
+                    assert!(ray.dir.y < 0.0, "area light emits from the u x v side (down)");
+                }
+                total += power / n as f32;
+            }
+            assert!(
+                (total / light.power() - Vec3::ONE).abs().max_element() < 0.01,
+                "{} vs {}",
+                total,
+                light.power()
+            );
+        }
     }
 
     #[test]

@@ -195,11 +195,24 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         rendered.image(name).expect("checked above").save(&path, args.exposure)?;
         eprintln!("wrote {}", path.display());
     }
-    let stats = rendered.stats;
+    let stats = &rendered.stats;
     let seconds = stats.elapsed.as_secs_f64();
     let total_rays = stats.rays + stats.shadow_rays;
     // Previews trace one centred ray per pixel whatever the sample count.
-    let spp = if settings.integrator == Integrator::Whitted { settings.samples } else { 1 };
+    let spp = if matches!(settings.integrator, Integrator::Whitted | Integrator::Photon) {
+        settings.samples
+    } else {
+        1
+    };
+    if let Some(p) = &stats.photons {
+        eprintln!(
+            "photons: {} global and {} caustic emitted, traced in {:.2} s, maps built in {:.2} s",
+            p.global_emitted, p.caustic_emitted, p.trace_seconds, p.build_seconds
+        );
+        for line in &p.skipped {
+            eprintln!("photons: {line}");
+        }
+    }
     eprintln!(
         "{}: {}x{} {:?}, {} spp in {seconds:.2} s: {} rays + {} shadow rays ({:.2} Mrays/s) on {} threads with {}",
         output.display(),

@@ -66,19 +66,24 @@ fn same_image_bit_for_bit_with_one_thread_and_with_many() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
     let scene = Scene::load(&path).unwrap();
     let accel = EmbreeIntersector::build(&scene.triangle_views()).unwrap();
-    let settings = RenderSettings {
+    let mut settings = RenderSettings {
         width: 48,
         height: 40,
         samples: 4,
         light_samples: 2,
+        integrator: Integrator::Photon,
         ..RenderSettings::from_scene(&scene)
     };
+    // Photon mapping too: the maps must not depend on the thread count either.
+    settings.photons.global_photons = 20_000;
+    settings.photons.caustic_photons = 20_000;
     let with = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| render(&scene, &accel, &settings, &|_| {})).pixels
     };
     let one = with(1);
     assert!(one.iter().any(|c| c.direct != Vec3::ZERO) && one.iter().any(|c| c.specular != Vec3::ZERO));
+    assert!(one.iter().any(|c| c.caustic != Vec3::ZERO) && one.iter().any(|c| c.global != Vec3::ZERO));
     assert_eq!(one, with(4));
     assert_eq!(one, with(3));
 }
@@ -144,7 +149,13 @@ fn a_mirror_shows_what_it_faces_times_its_reflectance() {
 fn both_backends_render_the_cornell_box_alike() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
     let scene = Scene::load(&path).unwrap();
-    let settings = RenderSettings { width: 64, height: 64, samples: 4, ..RenderSettings::from_scene(&scene) };
+    let settings = RenderSettings {
+        width: 64,
+        height: 64,
+        samples: 4,
+        integrator: Integrator::Whitted,
+        ..RenderSettings::from_scene(&scene)
+    };
     let [a, b] = [Backend::Embree, Backend::Native].map(|backend| {
         let accel = caustix::accel::build(backend, &scene.triangle_views()).unwrap();
         render(&scene, accel.as_ref(), &settings, &|_| {}).image("final").unwrap()
@@ -157,6 +168,28 @@ fn both_backends_render_the_cornell_box_alike() {
     eprintln!("pixels differing: {differing} of {}", a.pixels.len());
     assert!(differing * 100 <= a.pixels.len(), "{differing} pixels differ");
     assert!((mean(&a) - mean(&b)).abs().max_element() < 1e-3 * mean(&a).max_element());
+}
+
+#[test]
+fn both_backends_photon_map_the_cornell_box_alike() {
+    // Photon paths branch on every tie, so pixels may differ; the images
+    // must agree on average.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
+    let scene = Scene::load(&path).unwrap();
+    let mut settings =
+        RenderSettings { width: 48, height: 48, samples: 2, ..RenderSettings::from_scene(&scene) };
+    settings.integrator = Integrator::Photon;
+    settings.photons.global_photons = 50_000;
+    settings.photons.caustic_photons = 50_000;
+    let [a, b] = [Backend::Embree, Backend::Native].map(|backend| {
+        let accel = caustix::accel::build(backend, &scene.triangle_views()).unwrap();
+        render(&scene, accel.as_ref(), &settings, &|_| {}).image("final").unwrap()
+    });
+    let mean =
+        |img: &caustix::render::image::Image| img.pixels.iter().sum::<Vec3>() / img.pixels.len() as f32;
+    let (ma, mb) = (mean(&a), mean(&b));
+    eprintln!("mean radiance: embree {ma}, native {mb}");
+    assert!((ma - mb).abs().max_element() < 0.01 * ma.max_element(), "{ma} vs {mb}");
 }
 
 #[test]

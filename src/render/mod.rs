@@ -18,6 +18,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::accel::Intersector;
+use crate::photon::{build_maps, PhotonSettings, PhotonStats};
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use image::Image;
@@ -27,6 +28,10 @@ use whitted::{RayCount, Whitted};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Integrator {
+    /// Photon mapping: Whitted ray tracing plus caustics from the caustic
+    /// map and indirect light from the global map (by final gathering, or
+    /// shown directly when there are no gather rays).
+    Photon,
     /// Whitted ray tracing: direct light, mirrors, refraction with Fresnel.
     Whitted,
     /// Geometry preview: smooth normals as colours, `0.5 * (n + 1)`, dimmed by
@@ -59,6 +64,8 @@ pub struct RenderSettings {
     pub seed: u64,
     /// The integrator.
     pub integrator: Integrator,
+    /// Photon counts and estimates (for [`Integrator::Photon`]).
+    pub photons: PhotonSettings,
 }
 
 impl RenderSettings {
@@ -75,6 +82,7 @@ impl RenderSettings {
             min_throughput: 1e-4,
             seed: 0,
             integrator: r.integrator,
+            photons: scene.photons.clone(),
         }
     }
 }
@@ -87,15 +95,21 @@ pub struct Components {
     pub direct: Vec3,
     /// Everything reaching the camera through mirror reflection or refraction.
     pub specular: Vec3,
+    /// Caustics at the first surface hit: light focused onto it by mirrors
+    /// and glass (the caustic map).
+    pub caustic: Vec3,
+    /// Indirect light at the first surface hit: light that bounced off a
+    /// diffuse surface before (the global map, or final gathering).
+    pub global: Vec3,
 }
 
 impl Components {
     /// Names accepted by `--aov`, in output order.
-    pub const NAMES: [&'static str; 3] = ["direct", "specular", "final"];
+    pub const NAMES: [&'static str; 5] = ["direct", "specular", "caustic", "global", "final"];
 
     /// The sum of all parts.
     pub fn total(&self) -> Vec3 {
-        self.direct + self.specular
+        self.direct + self.specular + self.caustic + self.global
     }
 
     /// Radiance emitted by a light and seen after `depth` specular bounces.
@@ -112,6 +126,8 @@ impl Components {
         match name {
             "direct" => Some(self.direct),
             "specular" => Some(self.specular),
+            "caustic" => Some(self.caustic),
+            "global" => Some(self.global),
             "final" => Some(self.total()),
             _ => None,
         }
@@ -122,18 +138,25 @@ impl AddAssign for Components {
     fn add_assign(&mut self, o: Components) {
         self.direct += o.direct;
         self.specular += o.specular;
+        self.caustic += o.caustic;
+        self.global += o.global;
     }
 }
 
 impl Mul<f32> for Components {
     type Output = Components;
     fn mul(self, k: f32) -> Components {
-        Components { direct: self.direct * k, specular: self.specular * k }
+        Components {
+            direct: self.direct * k,
+            specular: self.specular * k,
+            caustic: self.caustic * k,
+            global: self.global * k,
+        }
     }
 }
 
 /// Numbers for the summary line of a render.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct RenderStats {
     /// Wall-clock time of the render.
     pub elapsed: Duration,
@@ -141,6 +164,8 @@ pub struct RenderStats {
     pub rays: u64,
     /// Shadow rays.
     pub shadow_rays: u64,
+    /// Photon tracing, if the integrator uses photons.
+    pub photons: Option<PhotonStats>,
 }
 
 /// A finished render: per-pixel components, row-major from the top left.
@@ -177,7 +202,9 @@ pub fn render(
 ) -> Rendered {
     let start = Instant::now();
     let (width, height) = (settings.width, settings.height);
-    let whitted = Whitted { scene, accel, settings };
+    let maps =
+        (settings.integrator == Integrator::Photon).then(|| build_maps(scene, accel, &settings.photons));
+    let whitted = Whitted { scene, accel, settings, maps: maps.as_ref() };
     // The depth preview maps distance from the eye to the scene's far side to 1..0.
     let b = scene.bounds();
     let far = (b.min - scene.camera.eye).length().max((b.max - scene.camera.eye).length());
@@ -195,7 +222,7 @@ pub fn render(
                 for x in x0..(x0 + TILE).min(width) {
                     let mut rng = Rng::new(settings.seed, (y as u64) * width as u64 + x as u64);
                     pixels.push(match settings.integrator {
-                        Integrator::Whitted => whitted.pixel(x, y, &mut rng, &mut count),
+                        Integrator::Whitted | Integrator::Photon => whitted.pixel(x, y, &mut rng, &mut count),
                         preview => preview_pixel(scene, accel, preview, far, (x, y), settings, &mut count),
                     });
                 }
@@ -219,6 +246,7 @@ pub fn render(
         elapsed: start.elapsed(),
         rays: rays.into_inner(),
         shadow_rays: shadow_rays.into_inner(),
+        photons: maps.map(|m| m.stats),
     };
     Rendered { width, height, pixels, stats }
 }

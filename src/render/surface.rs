@@ -4,6 +4,7 @@
 use glam::Vec3;
 
 use crate::accel::{Hit, Ray};
+use crate::optics;
 use crate::scene::Scene;
 
 /// A point on a surface, seen from an incoming ray.
@@ -58,6 +59,37 @@ impl SurfacePoint {
     /// A ray leaving the surface in direction `dir`.
     pub fn spawn(&self, dir: Vec3) -> Ray {
         Ray::new(self.offset_origin(dir), dir)
+    }
+
+    /// The mirror direction of `dir` (travelling towards the surface) about
+    /// the shading normal; if the smooth normal would send it below the
+    /// actual surface, about the geometric normal instead.
+    pub fn reflect(&self, dir: Vec3) -> Vec3 {
+        let r = optics::reflect(dir, self.ns);
+        if r.dot(self.ng) > 0.0 {
+            r
+        } else {
+            optics::reflect(dir, self.ng)
+        }
+    }
+
+    /// At a smooth dielectric of index `ior` (inside), the Fresnel reflectance
+    /// for `dir` and the refracted direction (`None` on total internal
+    /// reflection). Which side is inside follows the geometric normal.
+    pub fn refract(&self, dir: Vec3, ior: f32) -> (f32, Option<Vec3>) {
+        let (n1, n2) = if self.front { (1.0, ior) } else { (ior, 1.0) };
+        let kr = optics::fresnel_dielectric((-dir.dot(self.ns)).clamp(0.0, 1.0), n1, n2);
+        if kr >= 1.0 {
+            return (1.0, None);
+        }
+        // Through the shading normal; through the geometric one when the
+        // smooth normal would keep the ray on the near side.
+        let eta = n1 / n2;
+        let t = match optics::refract(dir, self.ns, eta) {
+            Some(t) if t.dot(self.ng) < 0.0 => Some(t),
+            _ => optics::refract(dir, self.ng, eta).filter(|t| t.dot(self.ng) < 0.0),
+        };
+        (kr, t)
     }
 
     /// A shadow ray from the surface to `target`, stopping just short of it

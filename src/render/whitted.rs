@@ -12,8 +12,8 @@ use glam::Vec3;
 use super::surface::SurfacePoint;
 use super::{Components, RenderSettings};
 use crate::accel::{Intersector, Ray};
-use crate::optics::{fresnel_dielectric, reflect, refract};
-use crate::sampling::{stratified, Rng};
+use crate::photon::{PhotonMap, PhotonMaps};
+use crate::sampling::{around, cosine_hemisphere, stratified, Rng};
 use crate::scene::Scene;
 
 /// The Whitted integrator over one scene and intersector.
@@ -22,8 +22,10 @@ pub struct Whitted<'a> {
     pub scene: &'a Scene,
     /// Answers ray queries.
     pub accel: &'a dyn Intersector,
-    /// Depth, light samples, cut-offs.
+    /// Depth, light samples, cut-offs, photon estimates.
     pub settings: &'a RenderSettings,
+    /// Photon maps, for the photon-mapping integrator.
+    pub maps: Option<&'a PhotonMaps>,
 }
 
 /// Per-pixel work counters.
@@ -63,6 +65,19 @@ impl Whitted<'_> {
         let mut out = Components::default();
         if m.is_glossy_or_diffuse() {
             out.direct = self.direct_light(&sp, wo, rng, count) + m.diffuse * self.settings.ambient;
+            if let Some(maps) = self.maps {
+                let p = &self.settings.photons;
+                if let Some(caustic) = &maps.caustic {
+                    out.caustic = caustic.radiance(sp.p, sp.ns, wo, m, &p.caustic_estimate);
+                }
+                if let Some(global) = &maps.global {
+                    out.global = if maps.for_gathering {
+                        self.final_gather(&sp, wo, global, rng, count)
+                    } else {
+                        global.radiance(sp.p, sp.ns, wo, m, &p.global_estimate)
+                    };
+                }
+            }
         }
         if depth + 1 >= self.settings.max_depth {
             return out;
@@ -75,19 +90,84 @@ impl Whitted<'_> {
             weight * self.radiance(&sp.spawn(new_dir), depth + 1, carried, rng, count).total()
         };
         if m.mirror.max_element() > 0.0 {
-            out.specular += follow(m.mirror, reflection(&sp, dir), rng, count);
+            out.specular += follow(m.mirror, sp.reflect(dir), rng, count);
         }
         if m.transmittance.max_element() > 0.0 {
-            let (n1, n2) = if sp.front { (1.0, m.ior) } else { (m.ior, 1.0) };
-            let kr = fresnel_dielectric((-dir.dot(sp.ns)).clamp(0.0, 1.0), n1, n2);
-            out.specular += follow(m.transmittance * kr, reflection(&sp, dir), rng, count);
-            if kr < 1.0 {
-                if let Some(t) = refraction(&sp, dir, n1 / n2) {
-                    out.specular += follow(m.transmittance * (1.0 - kr), t, rng, count);
-                }
+            let (kr, refracted) = sp.refract(dir, m.ior);
+            out.specular += follow(m.transmittance * kr, sp.reflect(dir), rng, count);
+            if let Some(t) = refracted {
+                out.specular += follow(m.transmittance * (1.0 - kr), t, rng, count);
             }
         }
         out
+    }
+
+    /// Indirect light at `sp` by final gathering (Jensen): cosine-distributed
+    /// rays sample the light arriving from the hemisphere, each asking the
+    /// global map for the radiance leaving the diffuse surface it meets.
+    fn final_gather(
+        &self,
+        sp: &SurfacePoint,
+        wo: Vec3,
+        global: &PhotonMap,
+        rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> Vec3 {
+        let m = &self.scene.materials[sp.material];
+        // The gather rays are shared out over the pixel's samples.
+        let n = self.settings.photons.gather_rays.div_ceil(self.settings.samples).max(1);
+        let mut sum = Vec3::ZERO;
+        for i in 0..n {
+            let wi = around(sp.ns, cosine_hemisphere(stratified(i, n, rng)));
+            if wi.dot(sp.ng) <= 0.0 {
+                continue;
+            }
+            let incoming = self.gather_radiance(&sp.spawn(wi), global, 0, rng, count);
+            if incoming != Vec3::ZERO {
+                // f cos / pdf with pdf = cos / pi.
+                sum += m.brdf(sp.ns, wi, wo) * incoming * std::f32::consts::PI;
+            }
+        }
+        sum / n as f32
+    }
+
+    /// Radiance along a gather ray that has bounced diffusely at least once
+    /// before: the global map's estimate where it meets a diffuse surface,
+    /// through mirrors and glass on the way. Light seen straight from a light
+    /// (or through mirrors and glass only) is not counted: shadow rays and the
+    /// caustic map already hold it.
+    fn gather_radiance(
+        &self,
+        ray: &Ray,
+        global: &PhotonMap,
+        bounces: u32,
+        rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> Vec3 {
+        count.closest += 1;
+        let Some(hit) = self.accel.intersect(ray) else { return Vec3::ZERO };
+        let sp = SurfacePoint::new(self.scene, ray, &hit);
+        let m = &self.scene.materials[sp.material];
+        let dir = ray.dir.normalize();
+        if m.is_glossy_or_diffuse() {
+            return global.precomputed_radiance(sp.p, sp.ns, m, &self.settings.photons.global_estimate);
+        }
+        let (mirror, glass) = (m.mirror.element_sum(), m.transmittance.element_sum());
+        if bounces >= 8 || mirror + glass <= 0.0 {
+            return Vec3::ZERO;
+        }
+        // One specular branch, chosen in proportion to its weight.
+        let (weight, next) = if rng.uniform() * (mirror + glass) < mirror {
+            (m.mirror * ((mirror + glass) / mirror), sp.reflect(dir))
+        } else {
+            let (kr, refracted) = sp.refract(dir, m.ior);
+            let next = match refracted {
+                Some(t) if rng.uniform() >= kr => t,
+                _ => sp.reflect(dir),
+            };
+            (m.transmittance * ((mirror + glass) / glass), next)
+        };
+        weight * self.gather_radiance(&sp.spawn(next), global, bounces + 1, rng, count)
     }
 
     /// Emitted radiance of the nearest area light hit before `ray.t_max`.
@@ -142,25 +222,5 @@ impl Whitted<'_> {
             sum += self.radiance(&ray, 0, Vec3::ONE, rng, count);
         }
         sum * (1.0 / s.samples as f32)
-    }
-}
-
-/// Mirror direction about the shading normal; if the smooth normal would send
-/// it below the actual surface, about the geometric normal instead.
-fn reflection(sp: &SurfacePoint, dir: Vec3) -> Vec3 {
-    let r = reflect(dir, sp.ns);
-    if r.dot(sp.ng) > 0.0 {
-        r
-    } else {
-        reflect(dir, sp.ng)
-    }
-}
-
-/// Refracted direction through the shading normal, falling back to the
-/// geometric normal when the smooth normal would keep it on the near side.
-fn refraction(sp: &SurfacePoint, dir: Vec3, eta: f32) -> Option<Vec3> {
-    match refract(dir, sp.ns, eta) {
-        Some(t) if t.dot(sp.ng) < 0.0 => Some(t),
-        _ => refract(dir, sp.ng, eta).filter(|t| t.dot(sp.ng) < 0.0),
     }
 }

@@ -31,6 +31,8 @@ pub struct SceneFile {
     #[serde(default)]
     pub render: RenderSection,
     #[serde(default)]
+    pub photons: PhotonSection,
+    #[serde(default)]
     pub materials: BTreeMap<String, Spanned<MaterialSection>>,
     #[serde(default)]
     pub point_light: Vec<PointLightSection>,
@@ -129,7 +131,7 @@ impl Default for RenderSection {
 }
 
 fn default_integrator() -> crate::render::Integrator {
-    crate::render::Integrator::Whitted
+    crate::render::Integrator::Photon
 }
 
 fn default_backend() -> crate::accel::Backend {
@@ -150,6 +152,97 @@ fn default_light_samples() -> u32 {
 
 fn light_samples<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     whole_number(d, 1, MAX_SAMPLES)
+}
+
+/// Most photons a map may be asked for.
+pub const MAX_PHOTONS: u32 = 100_000_000;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhotonSection {
+    /// Photons emitted for the global map.
+    #[serde(default = "default_global_photons", deserialize_with = "photon_count")]
+    pub global: u32,
+    /// Photons emitted for the caustic map.
+    #[serde(default = "default_caustic_photons", deserialize_with = "photon_count")]
+    pub caustic: u32,
+    /// Nearest photons per global estimate.
+    #[serde(default = "default_global_k", deserialize_with = "neighbours")]
+    pub global_k: u32,
+    /// Nearest photons per caustic estimate.
+    #[serde(default = "default_caustic_k", deserialize_with = "neighbours")]
+    pub caustic_k: u32,
+    /// Largest global search radius (default: 1/25 of the scene's diagonal).
+    #[serde(default)]
+    pub global_radius: Option<Positive>,
+    /// Largest caustic search radius (default: 1/100 of the scene's diagonal).
+    #[serde(default)]
+    pub caustic_radius: Option<Positive>,
+    /// Cone filter constant for caustics (>= 1; 0 turns the filter off).
+    #[serde(default = "default_cone_filter")]
+    pub cone_filter: Spanned<Finite>,
+    /// Final-gathering rays per shading point; 0 shows the global map directly.
+    #[serde(default = "default_gather_rays", deserialize_with = "gather_rays")]
+    pub gather_rays: u32,
+    /// Most bounces per photon.
+    #[serde(default = "default_photon_bounces", deserialize_with = "max_depth")]
+    pub max_bounces: u32,
+}
+
+impl Default for PhotonSection {
+    fn default() -> Self {
+        PhotonSection {
+            global: default_global_photons(),
+            caustic: default_caustic_photons(),
+            global_k: default_global_k(),
+            caustic_k: default_caustic_k(),
+            global_radius: None,
+            caustic_radius: None,
+            cone_filter: default_cone_filter(),
+            gather_rays: default_gather_rays(),
+            max_bounces: default_photon_bounces(),
+        }
+    }
+}
+
+fn default_global_photons() -> u32 {
+    100_000
+}
+
+fn default_caustic_photons() -> u32 {
+    200_000
+}
+
+fn default_global_k() -> u32 {
+    100
+}
+
+fn default_caustic_k() -> u32 {
+    60
+}
+
+fn default_cone_filter() -> Spanned<Finite> {
+    Spanned::new(0..0, Finite(1.1))
+}
+
+fn default_gather_rays() -> u32 {
+    64
+}
+
+fn default_photon_bounces() -> u32 {
+    16
+}
+
+fn photon_count<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 0, MAX_PHOTONS)
+}
+
+fn neighbours<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 1, 100_000)
+}
+
+fn gather_rays<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 0, MAX_SAMPLES)
 }
 
 #[derive(Debug, Deserialize)]

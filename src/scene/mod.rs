@@ -66,6 +66,8 @@ pub struct Scene {
     pub image: ImageSettings,
     /// Render settings.
     pub render: RenderOptions,
+    /// Photon counts and estimates.
+    pub photons: crate::photon::PhotonSettings,
     /// Materials; meshes refer to them by index.
     pub materials: Vec<Material>,
     /// Light sources.
@@ -306,15 +308,55 @@ impl Builder<'_> {
         if lights.is_empty() {
             self.warnings.push("the scene has no lights; lit renders will be black".into());
         }
+        let photons = self.photon_settings(&f.photons, &meshes)?;
         Ok(Scene {
             path: self.path.to_path_buf(),
             camera,
             image,
             render,
+            photons,
             materials,
             lights,
             meshes,
             warnings: self.warnings,
+        })
+    }
+
+    fn photon_settings(
+        &self,
+        p: &file::PhotonSection,
+        meshes: &[Mesh],
+    ) -> Result<crate::photon::PhotonSettings> {
+        use crate::photon::{Estimate, PhotonSettings};
+        let bounds = meshes.iter().fold(Bounds::EMPTY, |b, m| b.union(m.bounds()));
+        let diagonal = (bounds.max - bounds.min).length();
+        let kc = p.cone_filter.get_ref().0;
+        let cone_filter = match kc {
+            0.0 => None,
+            k if k >= 1.0 => Some(k),
+            k => {
+                return Err(self.error_at(
+                    p.cone_filter.span(),
+                    format!("cone_filter must be at least 1 (or 0 for none), found {k}"),
+                ))
+            }
+        };
+        Ok(PhotonSettings {
+            global_photons: p.global,
+            caustic_photons: p.caustic,
+            global_estimate: Estimate {
+                k: p.global_k as usize,
+                max_radius: p.global_radius.map_or(diagonal / 25.0, |r| r.0),
+                cone_filter: None,
+            },
+            caustic_estimate: Estimate {
+                k: p.caustic_k as usize,
+                max_radius: p.caustic_radius.map_or(diagonal / 100.0, |r| r.0),
+                cone_filter,
+            },
+            gather_rays: p.gather_rays,
+            max_bounces: p.max_bounces,
+            seed: 0,
         })
     }
 

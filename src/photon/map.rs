@@ -1,0 +1,258 @@
+//! A photon map: photons in a kd-tree (kiddo, the Rust counterpart of the
+//! nanoflann tree the seed report used) and the radiance estimate of Jensen's
+//! "A practical guide to global illumination using photon maps" (2000).
+
+use std::num::NonZero;
+
+use glam::Vec3;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+
+use crate::material::Material;
+
+/// One stored photon: where it landed, where it came from, what it carries.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Photon {
+    /// Position on the surface.
+    pub position: Vec3,
+    /// Unit direction towards where the photon came from.
+    pub incoming: Vec3,
+    /// Power (W per channel).
+    pub power: Vec3,
+    /// Unit shading normal of the surface it landed on, on the side it came from.
+    pub normal: Vec3,
+}
+
+/// How a radiance estimate gathers photons.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Photons used at most (the k nearest).
+    pub k: usize,
+    /// Largest search radius.
+    pub max_radius: f32,
+    /// Cone filter constant `k_c >= 1` (Jensen): photons are weighted by
+    /// `1 - d / (k_c r)`, sharpening caustics. `None`: no filter.
+    pub cone_filter: Option<f32>,
+}
+
+/// Photons in a kd-tree, ready for nearest-neighbour queries.
+pub struct PhotonMap {
+    photons: Vec<Photon>,
+    /// `None` when there are no photons.
+    tree: Option<ImmutableKdTree<f32, 3>>,
+    /// Irradiance precomputed at some photons (see [`PhotonMap::precompute_irradiance`]).
+    precomputed: Option<Precomputed>,
+}
+
+/// Irradiance estimated ahead of time at a subset of photon positions
+/// (Christensen 1999), so final gathering needs only a short nearest lookup.
+struct Precomputed {
+    /// (position, normal, irradiance) per chosen photon.
+    points: Vec<(Vec3, Vec3, Vec3)>,
+    tree: ImmutableKdTree<f32, 3>,
+}
+
+impl PhotonMap {
+    /// Builds the map (the kd-tree over the photons' positions). The build is
+    /// serial so the tree, and with it the order of equally distant
+    /// neighbours, never depends on the thread count.
+    ///
+    /// Panics beyond 2^32 photons (the settings cap photon counts far below).
+    pub fn new(photons: Vec<Photon>) -> PhotonMap {
+        let points: Vec<[f32; 3]> = photons.iter().map(|p| p.position.to_array()).collect();
+        let tree = (!points.is_empty())
+            .then(|| ImmutableKdTree::new_from_slice(&points).expect("fewer than 2^32 photons"));
+        PhotonMap { photons, tree, precomputed: None }
+    }
+
+    /// Estimates irradiance at every `stride`-th photon (in parallel) and
+    /// keeps it for [`PhotonMap::precomputed_radiance`].
+    pub fn precompute_irradiance(&mut self, stride: usize, estimate: &Estimate) {
+        use rayon::prelude::*;
+        let points: Vec<(Vec3, Vec3, Vec3)> = self
+            .photons
+            .par_iter()
+            .step_by(stride.max(1))
+            .map(|p| (p.position, p.normal, self.irradiance(p.position, p.normal, estimate)))
+            .collect();
+        if points.is_empty() {
+            return;
+        }
+        let positions: Vec<[f32; 3]> = points.iter().map(|p| p.0.to_array()).collect();
+        let tree = ImmutableKdTree::new_from_slice(&positions).expect("fewer than 2^32 photons");
+        self.precomputed = Some(Precomputed { points, tree });
+    }
+
+    /// Radiance leaving `p` (normal `n`) by the diffuse part of `material`,
+    /// from the nearest precomputed irradiance on a surface facing the same
+    /// way: `diffuse / pi * E`. Falls back to a full estimate when nothing was
+    /// precomputed nearby.
+    pub fn precomputed_radiance(&self, p: Vec3, n: Vec3, material: &Material, estimate: &Estimate) -> Vec3 {
+        let Some(pre) = &self.precomputed else {
+            return self.radiance(p, n, n, material, estimate);
+        };
+        let near = pre
+            .tree
+            .query(&p.to_array())
+            .nearest_n::<SquaredEuclidean<f32>>(NonZero::new(8).expect("8 > 0"))
+            .within(estimate.max_radius * estimate.max_radius)
+            .execute();
+        for candidate in near {
+            let (_, normal, irradiance) = pre.points[candidate.item as usize];
+            if normal.dot(n) > 0.9 {
+                return material.diffuse * std::f32::consts::FRAC_1_PI * irradiance;
+            }
+        }
+        Vec3::ZERO
+    }
+
+    /// The stored photons.
+    pub fn photons(&self) -> &[Photon] {
+        &self.photons
+    }
+
+    /// Bytes of photon records and kd-tree points (not counting the tree's
+    /// internal nodes, a few percent more).
+    pub fn bytes(&self) -> usize {
+        self.photons.len() * (std::mem::size_of::<Photon>() + 12 + 4)
+    }
+
+    /// The indices of up to `k` photons nearest `p` within `max_radius`,
+    /// with their squared distances, nearest first.
+    fn nearest(&self, p: Vec3, k: usize, max_radius: f32) -> Vec<(f32, usize)> {
+        let (Some(k), Some(tree)) = (NonZero::new(k), &self.tree) else { return Vec::new() };
+        tree.query(&p.to_array())
+            .nearest_n::<SquaredEuclidean<f32>>(k)
+            .within(max_radius * max_radius)
+            .execute()
+            .into_iter()
+            .map(|n| (n.distance, n.item as usize))
+            .collect()
+    }
+
+    /// Reflected radiance at `p` towards `wo`: the sum of `f_r * power` over
+    /// the nearest photons divided by the disc area `pi r^2`, with `r` the
+    /// distance to the farthest photon used. Photons arriving from below the
+    /// surface (`n` is the unit normal on the viewer's side) are ignored.
+    ///
+    /// When fewer than `k` photons lie within the maximum radius, the disc is
+    /// the whole search disc (`r = max_radius`): shrinking it to the few
+    /// photons found would turn each stray photon into a bright speck.
+    pub fn radiance(&self, p: Vec3, n: Vec3, wo: Vec3, material: &Material, estimate: &Estimate) -> Vec3 {
+        let found = self.nearest(p, estimate.k, estimate.max_radius);
+        let Some(&(farthest, _)) = found.last() else { return Vec3::ZERO };
+        let r2 = if found.len() < estimate.k { estimate.max_radius * estimate.max_radius } else { farthest };
+        if r2 <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let r = r2.sqrt();
+        let mut sum = Vec3::ZERO;
+        for &(d2, i) in &found {
+            let photon = &self.photons[i];
+            if photon.incoming.dot(n) <= 0.0 {
+                continue;
+            }
+            let weight = match estimate.cone_filter {
+                Some(kc) => 1.0 - d2.sqrt() / (kc * r),
+                None => 1.0,
+            };
+            sum += weight * material.brdf(n, photon.incoming, wo) * photon.power;
+        }
+        // The cone filter's weights integrate to (1 - 2 / (3 k_c)) pi r^2.
+        let area = std::f32::consts::PI * r2 * estimate.cone_filter.map_or(1.0, |kc| 1.0 - 2.0 / (3.0 * kc));
+        sum / area
+    }
+
+    /// Irradiance at `p` on a surface with normal `n`: `sum power / (pi r^2)`
+    /// over the nearest photons from above (for tests and diagnostics).
+    pub fn irradiance(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> Vec3 {
+        let lambertian = Material { diffuse: Vec3::ONE, ..Material::default() };
+        // A white Lambertian BRDF is 1 / pi, so radiance * pi is irradiance.
+        self.radiance(p, n, n, &lambertian, &Estimate { cone_filter: None, ..*estimate })
+            * std::f32::consts::PI
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    #[test]
+    fn nearest_matches_brute_force() {
+        let mut rng = Rng::new(1, 2);
+        let photons: Vec<Photon> = (0..5000)
+            .map(|i| Photon {
+                // Many share y = 0 exactly, as photons on a floor do.
+                position: Vec3::new(
+                    rng.uniform(),
+                    if i % 2 == 0 { 0.0 } else { rng.uniform() },
+                    rng.uniform(),
+                ),
+                incoming: Vec3::Y,
+                power: Vec3::ONE,
+                normal: Vec3::Y,
+            })
+            .collect();
+        let map = PhotonMap::new(photons.clone());
+        for _ in 0..50 {
+            let q = Vec3::new(rng.uniform(), rng.uniform() * 0.1, rng.uniform());
+            let found = map.nearest(q, 20, 0.2);
+            let mut brute: Vec<(f32, usize)> = photons
+                .iter()
+                .enumerate()
+                .map(|(i, p)| ((p.position - q).length_squared(), i))
+                .filter(|(d, _)| *d <= 0.04)
+                .collect();
+            brute.sort_by(|a, b| a.0.total_cmp(&b.0));
+            brute.truncate(20);
+            let found_d: Vec<f32> = found.iter().map(|f| f.0).collect();
+            let brute_d: Vec<f32> = brute.iter().map(|f| f.0).collect();
+            assert_eq!(found_d.len(), brute_d.len());
+            for (a, b) in found_d.iter().zip(&brute_d) {
+                assert!((a - b).abs() < 1e-6, "{found_d:?} vs {brute_d:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn uniform_photons_give_their_irradiance() {
+        // 100,000 photons of 1e-5 W spread uniformly over a unit square carry
+        // 1 W: irradiance 1 W/m^2 anywhere inside.
+        let mut rng = Rng::new(3, 3);
+        let photons = (0..100_000)
+            .map(|_| Photon {
+                position: Vec3::new(rng.uniform(), 0.0, rng.uniform()),
+                incoming: Vec3::new(0.3, 1.0, 0.0).normalize(),
+                power: Vec3::splat(1e-5),
+                normal: Vec3::Y,
+            })
+            .collect();
+        let map = PhotonMap::new(photons);
+        let est = Estimate { k: 500, max_radius: 0.5, cone_filter: None };
+        let e = map.irradiance(Vec3::new(0.5, 0.0, 0.5), Vec3::Y, &est);
+        assert!((e.x - 1.0).abs() < 0.1, "{e}");
+        // From below: nothing.
+        assert_eq!(map.irradiance(Vec3::new(0.5, 0.0, 0.5), -Vec3::Y, &est), Vec3::ZERO);
+        // With fewer than k photons in reach, the whole search disc counts:
+        // 100,000 photons per m^2 put about pi 0.01^2 1e5 = 31 in a disc of
+        // radius 0.01, which still estimate 1 W/m^2 (loosely: few photons).
+        let sparse = Estimate { k: 500, max_radius: 0.01, cone_filter: None };
+        let e = map.irradiance(Vec3::new(0.5, 0.0, 0.5), Vec3::Y, &sparse);
+        assert!((e.x - 1.0).abs() < 0.6, "{e}");
+        // The cone filter is normalised: a uniform density still gives 1.
+        let lambertian = Material { diffuse: Vec3::ONE, ..Material::default() };
+        let cone = Estimate { cone_filter: Some(1.1), ..est };
+        let l = map.radiance(Vec3::new(0.5, 0.0, 0.5), Vec3::Y, Vec3::Y, &lambertian, &cone)
+            * std::f32::consts::PI;
+        assert!((l.x - 1.0).abs() < 0.1, "{l}");
+        // Precomputed at every 4th photon, the lookup agrees with the full estimate.
+        let mut map = map;
+        map.precompute_irradiance(4, &est);
+        let grey = Material { diffuse: Vec3::splat(0.5), ..Material::default() };
+        let pre = map.precomputed_radiance(Vec3::new(0.5, 0.0, 0.5), Vec3::Y, &grey, &est);
+        let full = map.radiance(Vec3::new(0.5, 0.0, 0.5), Vec3::Y, Vec3::Y, &grey, &est);
+        assert!((pre - full).abs().max_element() < 0.1 * full.x, "{pre} vs {full}");
+        // Surfaces facing away find nothing.
+        assert_eq!(map.precomputed_radiance(Vec3::new(0.5, 0.0, 0.5), -Vec3::Y, &grey, &est), Vec3::ZERO);
+    }
+}

@@ -1,0 +1,387 @@
+//! Photon tracing (Jensen 1996, 2001): photons leave the lights carrying
+//! power, bounce through the scene by Russian roulette, and are stored where
+//! they land on diffuse or glossy surfaces, in two maps:
+//!
+//! - the **caustic map**: photons that reached a diffuse surface through
+//!   mirrors and glass only (paths `L S+ D`), for sharp caustics;
+//! - the **global map**: photons stored at diffuse surfaces after any path
+//!   (`L {S|D}* D`). With final gathering it holds every stored photon (the
+//!   gather rays ask it for all light leaving a surface); when it is shown
+//!   directly it holds only photons that bounced diffusely at least once,
+//!   since direct light comes from shadow rays and caustics from their map.
+//!
+//! Every photon carries its light's power divided by the number emitted
+//! from that light: physical units, no tuning constants. Each photon has its
+//! own random stream, so the maps do not depend on the thread count.
+
+pub mod map;
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::accel::{Intersector, Ray};
+use crate::render::surface::SurfacePoint;
+use crate::sampling::{around, cosine_hemisphere, Rng};
+use crate::scene::Scene;
+pub use map::{Estimate, Photon, PhotonMap};
+
+/// How many photons, and how the maps are read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PhotonSettings {
+    /// Photons emitted for the global map.
+    pub global_photons: u32,
+    /// Photons emitted for the caustic map.
+    pub caustic_photons: u32,
+    /// Radiance estimate on the global map.
+    pub global_estimate: Estimate,
+    /// Radiance estimate on the caustic map.
+    pub caustic_estimate: Estimate,
+    /// Final-gathering rays per shading point; 0 shows the global map directly.
+    pub gather_rays: u32,
+    /// Most bounces a photon makes.
+    pub max_bounces: u32,
+    /// Seed of the photons' random streams.
+    pub seed: u64,
+}
+
+/// What was built, skipped and how long it took.
+#[derive(Debug, Clone, Default)]
+pub struct PhotonStats {
+    /// Photons emitted for the global map (0 if skipped).
+    pub global_emitted: u64,
+    /// Photons emitted for the caustic map (0 if skipped).
+    pub caustic_emitted: u64,
+    /// Seconds spent tracing photons.
+    pub trace_seconds: f64,
+    /// Seconds spent building the kd-trees.
+    pub build_seconds: f64,
+    /// One line per map that was not built, saying why.
+    pub skipped: Vec<String>,
+}
+
+/// The photon maps of a scene.
+pub struct PhotonMaps {
+    /// The global map, if built.
+    pub global: Option<PhotonMap>,
+    /// The caustic map, if built.
+    pub caustic: Option<PhotonMap>,
+    /// Whether the global map holds all photons (for final gathering) or
+    /// only those that bounced diffusely (to be shown directly).
+    pub for_gathering: bool,
+    /// Counts and times.
+    pub stats: PhotonStats,
+}
+
+/// Which map a tracing pass fills.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pass {
+    /// Photons stored at every diffuse hit; `keep_direct` also keeps those
+    /// arriving straight from a light (for final gathering).
+    Global {
+        /// Keep photons with no diffuse bounce yet.
+        keep_direct: bool,
+    },
+    /// Photons stored at their first diffuse hit after one or more specular
+    /// bounces; every other path is dropped at its first diffuse hit.
+    Caustic,
+}
+
+/// Traces and stores the maps the scene needs, skipping the ones it does
+/// not (and saying so in the stats).
+pub fn build_maps(scene: &Scene, accel: &dyn Intersector, settings: &PhotonSettings) -> PhotonMaps {
+    let mut stats = PhotonStats::default();
+    let has_specular = scene.meshes.iter().any(|m| scene.materials[m.material].is_specular());
+    let has_diffuse = scene.meshes.iter().any(|m| scene.materials[m.material].is_glossy_or_diffuse());
+    let has_light = scene.lights.iter().any(|l| l.power().max_element() > 0.0);
+    let for_gathering = settings.gather_rays > 0;
+
+    let run = |pass: Pass, count: u32, stats: &mut PhotonStats| {
+        let start = Instant::now();
+        let photons = trace(scene, accel, pass, count, settings.max_bounces, settings.seed);
+        stats.trace_seconds += start.elapsed().as_secs_f64();
+        let start = Instant::now();
+        let map = PhotonMap::new(photons);
+        stats.build_seconds += start.elapsed().as_secs_f64();
+        map
+    };
+
+    let global = if !has_light {
+        stats.skipped.push("global map skipped: no light emits power".into());
+        None
+    } else if !has_diffuse {
+        stats.skipped.push("global map skipped: no diffuse or glossy surface to store photons on".into());
+        None
+    } else if settings.global_photons == 0 {
+        stats.skipped.push("global map skipped: 0 global photons requested".into());
+        None
+    } else {
+        stats.global_emitted = settings.global_photons as u64;
+        let mut map = run(Pass::Global { keep_direct: for_gathering }, settings.global_photons, &mut stats);
+        if for_gathering {
+            // Gather rays only need irradiance: estimate it once per 4 photons.
+            let start = Instant::now();
+            map.precompute_irradiance(4, &settings.global_estimate);
+            stats.build_seconds += start.elapsed().as_secs_f64();
+        }
+        Some(map)
+    };
+    let caustic = if !has_light || !has_diffuse {
+        stats.skipped.push("caustic map skipped: nothing for it to light".into());
+        None
+    } else if !has_specular {
+        stats.skipped.push("caustic map skipped: no mirror or glass surface to focus light".into());
+        None
+    } else if settings.caustic_photons == 0 {
+        stats.skipped.push("caustic map skipped: 0 caustic photons requested".into());
+        None
+    } else {
+        stats.caustic_emitted = settings.caustic_photons as u64;
+        Some(run(Pass::Caustic, settings.caustic_photons, &mut stats))
+    };
+    PhotonMaps { global, caustic, for_gathering, stats }
+}
+
+/// Bounding spheres of the meshes with mirror or glass parts: where caustic
+/// photons from point and spot lights are aimed.
+fn specular_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
+    scene
+        .meshes
+        .iter()
+        .filter(|m| scene.materials[m.material].is_specular())
+        .map(|m| {
+            let b = m.bounds();
+            let center = 0.5 * (b.min + b.max);
+            (center, m.positions.iter().map(|p| (*p - center).length()).fold(0.0, f32::max))
+        })
+        .collect()
+}
+
+/// Cones from a point towards spheres, for aiming caustic photons: each
+/// photon picks a cone in proportion to its solid angle and a direction
+/// uniformly inside it. The density of the mixture at a direction sums over
+/// every cone containing it, so overlapping cones are not counted twice.
+struct Cones {
+    /// (axis, cos of half-angle, solid angle)
+    cones: Vec<(Vec3, f32, f32)>,
+    total: f32,
+}
+
+impl Cones {
+    /// Cones from `origin` to `spheres`; `None` if the origin is inside one
+    /// (then every direction may matter: emit as usual).
+    fn new(origin: Vec3, spheres: &[(Vec3, f32)]) -> Option<Cones> {
+        let mut cones = Vec::new();
+        for &(center, radius) in spheres {
+            let to = center - origin;
+            let d = to.length();
+            if d <= radius * 1.0001 {
+                return None;
+            }
+            // A little wider than the sphere, for rounding at its rim.
+            let sin = (radius / d * 1.01).min(1.0);
+            let cos = (1.0 - sin * sin).sqrt();
+            cones.push((to / d, cos, std::f32::consts::TAU * (1.0 - cos)));
+        }
+        let total = cones.iter().map(|c| c.2).sum();
+        (total > 0.0).then_some(Cones { cones, total })
+    }
+
+    /// A direction from the uniforms `u` (cone choice in `u.x`, then reused).
+    fn sample(&self, u: glam::Vec2, v: glam::Vec2) -> Vec3 {
+        let mut pick = u.x * self.total;
+        let cone = self.cones.iter().find(|c| {
+            let hit = pick < c.2;
+            pick -= c.2;
+            hit
+        });
+        let &(axis, cos_max, _) = cone.unwrap_or(self.cones.last().expect("at least one cone"));
+        let cos = 1.0 - v.x * (1.0 - cos_max);
+        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        let phi = std::f32::consts::TAU * v.y;
+        around(axis, Vec3::new(sin * phi.cos(), sin * phi.sin(), cos))
+    }
+
+    /// The density (per steradian) of [`Cones::sample`] at `dir`.
+    fn pdf(&self, dir: Vec3) -> f32 {
+        let inside = self.cones.iter().filter(|c| dir.dot(c.0) >= c.1).count();
+        inside as f32 / self.total
+    }
+}
+
+/// Emits `count` photons in total from all lights (shared in proportion to
+/// their power), traces them, and returns the photons `pass` keeps.
+///
+/// For the caustic pass, point and spot lights aim their photons at the
+/// bounding spheres of mirror and glass meshes (Jensen's projection maps,
+/// with cones): photons that could only land on diffuse surfaces directly
+/// would be thrown away anyway. Each carries `intensity / pdf / n`, so the
+/// estimate is unchanged, with far more photons where caustics form.
+pub fn trace(
+    scene: &Scene,
+    accel: &dyn Intersector,
+    pass: Pass,
+    count: u32,
+    max_bounces: u32,
+    seed: u64,
+) -> Vec<Photon> {
+    // Photons per light, in proportion to power; each carries power / its count.
+    let weights: Vec<f32> = scene.lights.iter().map(|l| l.power().element_sum()).collect();
+    let total: f32 = weights.iter().sum();
+    if total <= 0.0 || count == 0 {
+        return Vec::new();
+    }
+    let mut per_light: Vec<u64> =
+        weights.iter().map(|w| (count as f64 * (*w / total) as f64).round() as u64).collect();
+    for (n, w) in per_light.iter_mut().zip(&weights) {
+        if *w > 0.0 && *n == 0 {
+            *n = 1;
+        }
+    }
+    let starts: Vec<u64> =
+        per_light.iter().scan(0, |acc, n| Some(std::mem::replace(acc, *acc + n))).collect();
+    let emitted: u64 = per_light.iter().sum();
+    let stream_seed = seed ^ if pass == Pass::Caustic { 0xC0FFEE } else { 0x61_0BA1 };
+    let spheres = if pass == Pass::Caustic { specular_spheres(scene) } else { Vec::new() };
+    let aims: Vec<Option<Cones>> = scene
+        .lights
+        .iter()
+        .map(|light| match light {
+            crate::light::Light::Point { position, .. } | crate::light::Light::Spot { position, .. }
+                if !spheres.is_empty() =>
+            {
+                Cones::new(*position, &spheres)
+            }
+            _ => None,
+        })
+        .collect();
+
+    const CHUNK: u64 = 4096;
+    (0..emitted.div_ceil(CHUNK))
+        .into_par_iter()
+        .flat_map_iter(|chunk| {
+            let mut stored = Vec::new();
+            for index in chunk * CHUNK..((chunk + 1) * CHUNK).min(emitted) {
+                let light = starts.partition_point(|&s| s <= index) - 1;
+                let mut rng = Rng::new(stream_seed, index);
+                let (ray, power) = match &aims[light] {
+                    Some(cones) => {
+                        let dir = cones.sample(rng.uniform2(), rng.uniform2());
+                        match scene.lights[light].intensity(dir) {
+                            Some((origin, intensity)) => (Ray::new(origin, dir), intensity / cones.pdf(dir)),
+                            None => continue,
+                        }
+                    }
+                    None => scene.lights[light].emit(rng.uniform2(), rng.uniform2()),
+                };
+                let power = power / per_light[light] as f32;
+                trace_photon(scene, accel, pass, ray, power, max_bounces, &mut rng, &mut stored);
+            }
+            stored
+        })
+        .collect()
+}
+
+/// Follows one photon, storing it by the rules of `pass`.
+#[allow(clippy::too_many_arguments)]
+fn trace_photon(
+    scene: &Scene,
+    accel: &dyn Intersector,
+    pass: Pass,
+    mut ray: Ray,
+    mut power: Vec3,
+    max_bounces: u32,
+    rng: &mut Rng,
+    stored: &mut Vec<Photon>,
+) {
+    let (mut diffuse_bounces, mut specular_bounces) = (0u32, 0u32);
+    for _ in 0..max_bounces {
+        let Some(hit) = accel.intersect(&ray) else { return };
+        let sp = SurfacePoint::new(scene, &ray, &hit);
+        let m = &scene.materials[sp.material];
+        let dir = ray.dir.normalize();
+
+        if m.is_glossy_or_diffuse() {
+            let keep = match pass {
+                Pass::Caustic => specular_bounces > 0,
+                Pass::Global { keep_direct } => keep_direct || diffuse_bounces > 0,
+            };
+            if keep {
+                stored.push(Photon { position: sp.p, incoming: -dir, power, normal: sp.ns });
+            }
+            if pass == Pass::Caustic {
+                return; // caustic paths end at their first diffuse surface
+            }
+        }
+
+        // Russian roulette (the seed report's table, with the four parts of
+        // our materials): continue with probability max(total reflectance),
+        // pick a part in proportion to its reflectance summed over channels,
+        // and rescale the power per channel so the estimate stays unbiased.
+        let parts = [m.diffuse, m.specular, m.mirror, m.transmittance];
+        let sums = parts.map(|c| c.element_sum());
+        let all: f32 = sums.iter().sum();
+        let survive = m.total_reflectance().max_element().min(1.0);
+        let xi = rng.uniform();
+        if all <= 0.0 || xi >= survive {
+            return; // absorbed
+        }
+        let mut pick = xi / survive * all;
+        let part = (0..4).find(|&i| {
+            if pick < sums[i] {
+                true
+            } else {
+                pick -= sums[i];
+                false
+            }
+        });
+        let part = part.unwrap_or(3 - sums.iter().rev().position(|&s| s > 0.0).unwrap_or(0));
+        let probability = survive * sums[part] / all;
+        let new_dir = match part {
+            0 => {
+                diffuse_bounces += 1;
+                power *= parts[0] / probability; // f cos / pdf = diffuse for cosine sampling
+                around(sp.ns, cosine_hemisphere(rng.uniform2()))
+            }
+            1 => {
+                diffuse_bounces += 1;
+                // Sample the normalised Phong lobe around the mirror direction
+                // (pdf (e+1)/(2 pi) cos^e); f cos / pdf = specular (e+2)/(e+1) cos.
+                let e = m.phong_exponent;
+                let u = rng.uniform2();
+                let cos_a = u.x.powf(1.0 / (e + 1.0));
+                let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+                let phi = std::f32::consts::TAU * u.y;
+                let local = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
+                let d = around(sp.reflect(dir), local);
+                let cos = d.dot(sp.ns);
+                if cos <= 0.0 {
+                    return;
+                }
+                power *= parts[1] * ((e + 2.0) / (e + 1.0) * cos) / probability;
+                d
+            }
+            2 => {
+                specular_bounces += 1;
+                power *= parts[2] / probability;
+                sp.reflect(dir)
+            }
+            _ => {
+                specular_bounces += 1;
+                power *= parts[3] / probability;
+                // Fresnel chooses between reflection and refraction with
+                // exactly its own weights, so the power needs no rescaling.
+                let (kr, refracted) = sp.refract(dir, m.ior);
+                match refracted {
+                    Some(t) if rng.uniform() >= kr => t,
+                    _ => sp.reflect(dir),
+                }
+            }
+        };
+        if new_dir.dot(sp.ng) == 0.0 {
+            return;
+        }
+        ray = sp.spawn(new_dir);
+    }
+}

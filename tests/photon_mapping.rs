@@ -1,0 +1,192 @@
+//! Photon maps against analytic answers: energy is conserved, the global
+//! map converges to the exact indirect light in a closed sphere, and a glass
+//! ball focuses a caustic where geometric optics puts it.
+
+use std::f32::consts::PI;
+use std::path::Path;
+
+use caustix::accel::{Backend, Intersector};
+use caustix::photon::{trace, Estimate, Pass, PhotonMap};
+use caustix::scene::Scene;
+use glam::Vec3;
+
+/// A closed grey sphere (radius 2, the inside seen) with a 100 W point light
+/// at its centre.
+fn furnace(albedo: f32) -> Scene {
+    let text = format!(
+        r#"
+        [camera]
+        eye = [0, 0, 1]
+        look_at = [0, 0, 0]
+        [materials.grey]
+        diffuse = {albedo}
+        [[point_light]]
+        position = [0, 0, 0]
+        power = 100
+        [[sphere]]
+        center = [0, 0, 0]
+        radius = 2
+        subdivisions = 5
+        material = "grey"
+    "#
+    );
+    Scene::from_toml(&text, Path::new("furnace.toml")).unwrap()
+}
+
+fn accel(scene: &Scene) -> Box<dyn Intersector> {
+    caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap()
+}
+
+fn mesh_area(scene: &Scene) -> f32 {
+    let m = &scene.meshes[0];
+    m.indices
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
+
+#[test]
+fn stored_power_is_the_lights_power_times_the_bounce_series() {
+    // In a closed sphere every photon is stored at each diffuse hit until
+    // absorbed: expected stored power = power * (1 + a + a^2 + ...) = power / (1 - a).
+    for albedo in [0.3f32, 0.7] {
+        let scene = furnace(albedo);
+        let photons =
+            trace(&scene, accel(&scene).as_ref(), Pass::Global { keep_direct: true }, 200_000, 64, 1);
+        let stored: Vec3 = photons.iter().map(|p| p.power).sum();
+        let expected = 100.0 / (1.0 - albedo);
+        let error = (stored.x / expected - 1.0).abs();
+        eprintln!(
+            "albedo {albedo}: stored {} W of {expected} W expected ({:.2}% off)",
+            stored.x,
+            100.0 * error
+        );
+        assert!(error < 0.01, "albedo {albedo}: {} vs {expected}", stored.x);
+        // Without the photons straight from the light: power * a / (1 - a).
+        let indirect: f32 =
+            trace(&scene, accel(&scene).as_ref(), Pass::Global { keep_direct: false }, 200_000, 64, 1)
+                .iter()
+                .map(|p| p.power.x)
+                .sum();
+        assert!((indirect / (100.0 * albedo / (1.0 - albedo)) - 1.0).abs() < 0.01, "{indirect}");
+    }
+}
+
+#[test]
+fn global_map_converges_to_the_exact_indirect_light() {
+    // Indirect irradiance on the inside of a closed sphere with a light at
+    // its centre is uniform: power * a / ((1 - a) area); radiance a/pi times it.
+    //
+    // A k-nearest estimate has relative noise of about 1 / sqrt(k) whatever
+    // the photon count (measured here: the mean over the sphere is within
+    // 0.5% of exact at k = 100, the spread +-20%), so it converges only if k
+    // grows with the photon count N while k / N shrinks: k = sqrt(N).
+    let albedo = 0.5;
+    let scene = furnace(albedo);
+    let accel = accel(&scene);
+    let material = &scene.materials[0];
+    let exact = albedo / PI * 100.0 * albedo / ((1.0 - albedo) * mesh_area(&scene));
+    let mesh = &scene.meshes[0];
+    let mut errors = Vec::new();
+    for photons in [2_000u32, 20_000, 200_000] {
+        let map = PhotonMap::new(trace(
+            &scene,
+            accel.as_ref(),
+            Pass::Global { keep_direct: false },
+            photons,
+            64,
+            7,
+        ));
+        let k = (photons as f32).sqrt() as usize;
+        let estimate = Estimate { k, max_radius: 1.0, cone_filter: None };
+        // Mean relative error at 200 points spread over the sphere.
+        let mut sum = 0.0;
+        let points = 200;
+        for i in 0..points {
+            let t = mesh.indices[i * mesh.indices.len() / points];
+            let p = t.map(|k| mesh.positions[k as usize]).iter().sum::<Vec3>() / 3.0;
+            let n = -p.normalize(); // facing the inside, where the photons are
+            let l = map.radiance(p, n, n, material, &estimate);
+            sum += (l.x / exact - 1.0).abs();
+        }
+        errors.push(sum / points as f32);
+    }
+    eprintln!("mean relative error at 2k, 20k, 200k photons (k = 44, 141, 447): {errors:?}");
+    assert!(errors[0] > errors[1] && errors[1] > errors[2], "error must fall as photons rise: {errors:?}");
+    assert!(errors[2] < 0.05, "at 200k photons: {}", errors[2]);
+}
+
+/// A glass ball (radius 1, index 1.5, centre (0, 2, 0)) over a white floor,
+/// lit by a point light 20 units away from the ball's centre, off the vertical.
+fn ball_lens(floor_y: f32) -> Scene {
+    let text = format!(
+        r#"
+        [camera]
+        eye = [0, 5, 5]
+        look_at = [0, 0, 0]
+        [materials.glass]
+        transmittance = 1
+        ior = 1.5
+        [materials.white]
+        diffuse = 0.8
+        [[point_light]]
+        position = [6, 21.0788, 0]   # 20 from the ball's centre
+        power = 1000
+        [[sphere]]
+        center = [0, 2, 0]
+        radius = 1
+        subdivisions = 6
+        material = "glass"
+        [[quad]]
+        center = [0, {floor_y}, 0]
+        u = [8, 0, 0]
+        v = [0, 0, -8]
+        material = "white"
+    "#
+    );
+    Scene::from_toml(&text, Path::new("ball.toml")).unwrap()
+}
+
+#[test]
+fn a_glass_ball_focuses_light_where_geometric_optics_puts_it() {
+    // A ball lens of radius R and index n has focal length f = n R / (2 (n - 1))
+    // = 1.5 from its centre; for a source at d_o = 20, the image is at
+    // d_i = 1 / (1/f - 1/d_o) = 1.6216 beyond the centre, on the line from the
+    // light through the centre (every line through a sphere's centre is an
+    // axis). Put the floor through that image point.
+    let (light, centre) = (Vec3::new(6.0, 21.0788, 0.0), Vec3::new(0.0, 2.0, 0.0));
+    let axis = (centre - light).normalize();
+    let focus = centre + axis * 1.6216;
+    let scene = ball_lens(focus.y);
+    let accel = accel(&scene);
+    let map = PhotonMap::new(trace(&scene, accel.as_ref(), Pass::Caustic, 400_000, 16, 3));
+    let estimate = Estimate { k: 100, max_radius: 0.05, cone_filter: None };
+
+    // Scan the floor along x through the expected focus.
+    let (mut best_x, mut best_e) = (0.0f32, 0.0f32);
+    for i in 0..=300 {
+        let x = -2.0 + 4.0 * i as f32 / 300.0;
+        let e = map.irradiance(Vec3::new(x, focus.y, 0.0), Vec3::Y, &estimate).x;
+        if e > best_e {
+            (best_x, best_e) = (x, e);
+        }
+    }
+    // What the light alone would give there, with no ball in the way.
+    let to_light = light - Vec3::new(best_x, focus.y, 0.0);
+    let unshadowed = 1000.0 / (4.0 * PI) * (to_light.normalize().y) / to_light.length_squared();
+    eprintln!(
+        "caustic peak at x = {best_x:.3} (geometric optics: {:.3}), {best_e:.1} W/m^2, {:.0}x the unshadowed direct {unshadowed:.3} W/m^2",
+        focus.x,
+        best_e / unshadowed
+    );
+    assert!((best_x - focus.x).abs() < 0.1, "peak at {best_x}, expected {}", focus.x);
+    assert!(best_e > 20.0 * unshadowed, "concentration only {}", best_e / unshadowed);
+    // The light that went through the ball arrives as caustic photons:
+    // about (1 - 0.04)^2 of what the ball intercepts, R^2 / (4 d_o^2) of 1000 W.
+    let total: f32 = map.photons().iter().map(|p| p.power.x).sum();
+    let intercepted = 1000.0 / (4.0 * 400.0);
+    assert!(total > 0.8 * intercepted && total < intercepted, "{total} of {intercepted}");
+}
