@@ -91,6 +91,22 @@ struct RenderArgs {
     /// Shadow rays per area light at each shading point (overrides the scene file).
     #[arg(long)]
     light_samples: Option<u32>,
+    /// Photons emitted for the global map (overrides [photons] global; 0 skips it).
+    #[arg(long)]
+    photons: Option<u32>,
+    /// Photons emitted for the caustic map (overrides [photons] caustic; 0 skips it).
+    #[arg(long)]
+    caustic_photons: Option<u32>,
+    /// Nearest photons per global estimate (overrides [photons] global_k).
+    #[arg(long)]
+    global_k: Option<u32>,
+    /// Nearest photons per caustic estimate (overrides [photons] caustic_k).
+    #[arg(long)]
+    caustic_k: Option<u32>,
+    /// Final-gathering rays per pixel, shared over its samples; 0 shows the
+    /// global map directly (overrides [photons] gather_rays).
+    #[arg(long)]
+    gather_rays: Option<u32>,
     /// Exposure for PNG output, in stops: each pixel is multiplied by 2^EXPOSURE.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
@@ -155,6 +171,21 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         1,
         limits::MAX_SAMPLES,
     )?;
+    let p = &mut settings.photons;
+    p.global_photons =
+        in_range("--photons", args.photons.unwrap_or(p.global_photons), 0, limits::MAX_PHOTONS)?;
+    p.caustic_photons = in_range(
+        "--caustic-photons",
+        args.caustic_photons.unwrap_or(p.caustic_photons),
+        0,
+        limits::MAX_PHOTONS,
+    )?;
+    p.global_estimate.k =
+        in_range("--global-k", args.global_k.unwrap_or(p.global_estimate.k as u32), 1, 100_000)? as usize;
+    p.caustic_estimate.k =
+        in_range("--caustic-k", args.caustic_k.unwrap_or(p.caustic_estimate.k as u32), 1, 100_000)? as usize;
+    p.gather_rays =
+        in_range("--gather-rays", args.gather_rays.unwrap_or(p.gather_rays), 0, limits::MAX_SAMPLES)?;
     anyhow::ensure!(args.exposure.is_finite(), "--exposure must be a finite number of stops");
     for name in &args.aov {
         anyhow::ensure!(

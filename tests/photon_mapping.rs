@@ -190,3 +190,25 @@ fn a_glass_ball_focuses_light_where_geometric_optics_puts_it() {
     let intercepted = 1000.0 / (4.0 * 400.0);
     assert!(total > 0.8 * intercepted && total < intercepted, "{total} of {intercepted}");
 }
+
+#[test]
+fn cli_says_which_maps_it_skipped_and_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("quad.toml");
+    std::fs::write(&scene, include_str!("common/quad.toml")).unwrap();
+    let run = |extra: &[&str]| {
+        let out = dir.path().join("out.png");
+        let mut args =
+            vec!["render".to_string(), scene.display().to_string(), "-o".into(), out.display().to_string()];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_caustix")).args(&args).output().unwrap();
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        String::from_utf8_lossy(&run.stderr).into_owned()
+    };
+    // A diffuse quad under a point light: nothing to focus light.
+    let log = run(&[]);
+    assert!(log.contains("caustic map skipped: no mirror or glass surface"), "{log}");
+    assert!(log.contains("100000 global and 0 caustic emitted"), "{log}");
+    let log = run(&["--photons", "0", "--gather-rays", "0"]);
+    assert!(log.contains("global map skipped: 0 global photons requested"), "{log}");
+}

@@ -90,6 +90,14 @@ impl PhotonMap {
         let Some(pre) = &self.precomputed else {
             return self.radiance(p, n, n, material, estimate);
         };
+        let to_radiance = |irradiance: Vec3| material.diffuse * std::f32::consts::FRAC_1_PI * irradiance;
+        // Usually the nearest point lies on the same surface; only if not,
+        // look a little further.
+        let nearest = pre.tree.query(&p.to_array()).nearest_one::<SquaredEuclidean<f32>>().execute();
+        let (_, normal, irradiance) = pre.points[nearest.item as usize];
+        if nearest.distance <= estimate.max_radius * estimate.max_radius && normal.dot(n) > 0.9 {
+            return to_radiance(irradiance);
+        }
         let near = pre
             .tree
             .query(&p.to_array())
@@ -99,7 +107,7 @@ impl PhotonMap {
         for candidate in near {
             let (_, normal, irradiance) = pre.points[candidate.item as usize];
             if normal.dot(n) > 0.9 {
-                return material.diffuse * std::f32::consts::FRAC_1_PI * irradiance;
+                return to_radiance(irradiance);
             }
         }
         Vec3::ZERO

@@ -72,7 +72,7 @@ impl Whitted<'_> {
                 }
                 if let Some(global) = &maps.global {
                     out.global = if maps.for_gathering {
-                        self.final_gather(&sp, wo, global, rng, count)
+                        self.final_gather(&sp, wo, global, throughput, rng, count)
                     } else {
                         global.radiance(sp.p, sp.ns, wo, m, &p.global_estimate)
                     };
@@ -105,17 +105,23 @@ impl Whitted<'_> {
     /// Indirect light at `sp` by final gathering (Jensen): cosine-distributed
     /// rays sample the light arriving from the hemisphere, each asking the
     /// global map for the radiance leaving the diffuse surface it meets.
+    ///
+    /// The gather rays are shared out over the pixel's samples and scaled by
+    /// the weight of the path that got here (`throughput`), at least one: a
+    /// surface seen through a 4% glass reflection needs few. Any count gives
+    /// an unbiased estimate; fewer only add noise where it is weighted down.
     fn final_gather(
         &self,
         sp: &SurfacePoint,
         wo: Vec3,
         global: &PhotonMap,
+        throughput: Vec3,
         rng: &mut Rng,
         count: &mut RayCount,
     ) -> Vec3 {
         let m = &self.scene.materials[sp.material];
-        // The gather rays are shared out over the pixel's samples.
-        let n = self.settings.photons.gather_rays.div_ceil(self.settings.samples).max(1);
+        let per_sample = self.settings.photons.gather_rays.div_ceil(self.settings.samples);
+        let n = ((per_sample as f32 * throughput.max_element().min(1.0)).ceil() as u32).max(1);
         let mut sum = Vec3::ZERO;
         for i in 0..n {
             let wi = around(sp.ns, cosine_hemisphere(stratified(i, n, rng)));

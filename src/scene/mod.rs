@@ -6,7 +6,7 @@ mod file;
 /// Bounds on the numbers a scene file (or the command line) may set.
 pub mod limits {
     pub use super::file::{
-        MAX_DEPTH, MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_SPHERE_SUBDIVISIONS, MAX_TEAPOT_LEVEL,
+        MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PHOTONS, MAX_SAMPLES, MAX_SPHERE_SUBDIVISIONS, MAX_TEAPOT_LEVEL,
     };
 }
 pub mod mesh;
