@@ -15,6 +15,7 @@
 
 pub mod accel;
 pub mod bench;
+pub mod bounds;
 pub mod error;
 pub mod light;
 pub mod material;

@@ -14,7 +14,7 @@ use std::path::Path;
 use caustix::accel::bvh::Bvh;
 use caustix::accel::embree::{EmbreeIntersector, TriangleView};
 use caustix::accel::{Hit, Intersector, Ray};
-use caustix::sampling::Rng;
+use caustix::sampling::{uniform_sphere, Rng};
 use caustix::scene::mesh::Mesh;
 use caustix::scene::shapes::{cuboid, sphere};
 use caustix::scene::teapot::{parse_bpt, tessellate, TEAPOT_BPT};
@@ -98,10 +98,7 @@ fn cases() -> Vec<Case> {
 }
 
 fn random_unit(rng: &mut Rng) -> Vec3 {
-    let z = 1.0 - 2.0 * rng.uniform();
-    let phi = std::f32::consts::TAU * rng.uniform();
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    uniform_sphere(rng.uniform2())
 }
 
 fn point_in(b: &Bounds, rng: &mut Rng) -> Vec3 {

@@ -18,6 +18,7 @@ use rayon::prelude::*;
 
 use super::embree::TriangleView;
 use super::{Hit, Intersector, Ray};
+use crate::bounds::Bounds;
 
 /// Most triangles in one leaf.
 const MAX_LEAF: usize = 4;
@@ -49,29 +50,6 @@ struct Triangle {
     v: [Vec3; 3],
     geom_id: u32,
     prim_id: u32,
-}
-
-#[derive(Debug, Clone, Copy)]
-struct Bounds {
-    min: Vec3,
-    max: Vec3,
-}
-
-impl Bounds {
-    const EMPTY: Bounds = Bounds { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY };
-
-    fn union(self, o: Bounds) -> Bounds {
-        Bounds { min: self.min.min(o.min), max: self.max.max(o.max) }
-    }
-
-    fn grow(self, p: Vec3) -> Bounds {
-        Bounds { min: self.min.min(p), max: self.max.max(p) }
-    }
-
-    fn half_area(&self) -> f32 {
-        let d = (self.max - self.min).max(Vec3::ZERO);
-        d.x * d.y + d.y * d.z + d.z * d.x
-    }
 }
 
 /// A triangle during the build: its bounds, centroid, and where it came from.

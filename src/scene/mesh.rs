@@ -6,40 +6,7 @@ use std::collections::HashMap;
 use glam::{Mat3, Mat4, Vec3};
 
 use crate::accel::embree::TriangleView;
-
-/// An axis-aligned bounding box.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Bounds {
-    /// Smallest corner.
-    pub min: Vec3,
-    /// Largest corner.
-    pub max: Vec3,
-}
-
-impl Bounds {
-    /// The empty box (contains nothing; any union replaces it).
-    pub const EMPTY: Bounds = Bounds { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY };
-
-    /// The box around `points`.
-    pub fn of(points: &[Vec3]) -> Bounds {
-        points.iter().fold(Bounds::EMPTY, |b, &p| b.union_point(p))
-    }
-
-    /// This box grown to include `p`.
-    pub fn union_point(self, p: Vec3) -> Bounds {
-        Bounds { min: self.min.min(p), max: self.max.max(p) }
-    }
-
-    /// The box around both.
-    pub fn union(self, other: Bounds) -> Bounds {
-        Bounds { min: self.min.min(other.min), max: self.max.max(other.max) }
-    }
-
-    /// Whether the box holds no point.
-    pub fn is_empty(&self) -> bool {
-        self.min.cmpgt(self.max).any()
-    }
-}
+pub use crate::bounds::Bounds;
 
 /// A triangle mesh with one material.
 #[derive(Debug, Clone)]
