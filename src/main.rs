@@ -103,6 +103,12 @@ struct RenderArgs {
     /// Nearest photons per caustic estimate (overrides [photons] caustic_k).
     #[arg(long)]
     caustic_k: Option<u32>,
+    /// Largest search radius of a global estimate (overrides [photons] global_radius).
+    #[arg(long)]
+    global_radius: Option<f32>,
+    /// Largest search radius of a caustic estimate (overrides [photons] caustic_radius).
+    #[arg(long)]
+    caustic_radius: Option<f32>,
     /// Final-gathering rays per pixel, shared over its samples; 0 shows the
     /// global map directly (overrides [photons] gather_rays).
     #[arg(long)]
@@ -186,6 +192,15 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         in_range("--caustic-k", args.caustic_k.unwrap_or(p.caustic_estimate.k as u32), 1, 100_000)? as usize;
     p.gather_rays =
         in_range("--gather-rays", args.gather_rays.unwrap_or(p.gather_rays), 0, limits::MAX_SAMPLES)?;
+    for (flag, value, radius) in [
+        ("--global-radius", args.global_radius, &mut p.global_estimate.max_radius),
+        ("--caustic-radius", args.caustic_radius, &mut p.caustic_estimate.max_radius),
+    ] {
+        if let Some(r) = value {
+            anyhow::ensure!(r.is_finite() && r > 0.0, "{flag} must be a distance greater than 0, found {r}");
+            *radius = r;
+        }
+    }
     anyhow::ensure!(args.exposure.is_finite(), "--exposure must be a finite number of stops");
     for name in &args.aov {
         anyhow::ensure!(

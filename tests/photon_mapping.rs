@@ -209,6 +209,14 @@ fn cli_says_which_maps_it_skipped_and_why() {
     let log = run(&[]);
     assert!(log.contains("caustic map skipped: no mirror or glass surface"), "{log}");
     assert!(log.contains("100000 global and 0 caustic emitted"), "{log}");
-    let log = run(&["--photons", "0", "--gather-rays", "0"]);
+    let log = run(&["--photons", "0", "--gather-rays", "0", "--global-radius", "0.5", "--caustic-k", "10"]);
     assert!(log.contains("global map skipped: 0 global photons requested"), "{log}");
+    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_caustix"))
+        .args(["render".to_string(), scene.display().to_string(), "--caustic-radius=-1".into()])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("--caustic-radius must be a distance greater than 0")
+    );
 }
