@@ -188,6 +188,7 @@ fn a_glass_ball_focuses_light_where_geometric_optics_puts_it() {
     // about (1 - 0.04)^2 of what the ball intercepts, R^2 / (4 d_o^2) of 1000 W.
     let total: f32 = map.photons().iter().map(|p| p.power.x).sum();
     let intercepted = 1000.0 / (4.0 * 400.0);
+    eprintln!("caustic photons carry {total:.4} W of the {intercepted} W the ball intercepts");
     assert!(total > 0.8 * intercepted && total < intercepted, "{total} of {intercepted}");
 }
 
