@@ -36,6 +36,19 @@ enum Command {
     /// Measure performance.
     #[command(subcommand)]
     Bench(BenchCommand),
+    /// Compare an image with a reference: RMSE, relative MSE, mean absolute error.
+    Compare {
+        /// The image (.exr or .hdr for linear values; .png is decoded from sRGB).
+        image: PathBuf,
+        /// The reference image, same size.
+        reference: PathBuf,
+        /// Also write a false-colour picture of the differences (PNG).
+        #[arg(long)]
+        error_image: Option<PathBuf>,
+        /// Absolute difference shown as full red in the error picture.
+        #[arg(long, default_value_t = 0.1)]
+        error_scale: f32,
+    },
 }
 
 #[derive(Subcommand)]
@@ -139,6 +152,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render(args),
         Command::Info { scene } => info(&scene),
+        Command::Compare { image, reference, error_image, error_scale } => {
+            compare(&image, &reference, error_image.as_deref(), error_scale)
+        }
         Command::Bench(BenchCommand::Rays { scene, teapot_subdivisions, width, height, repeats }) => {
             bench_rays(&scene, teapot_subdivisions, width, height, repeats)
         }
@@ -245,7 +261,7 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
     let seconds = stats.elapsed.as_secs_f64();
     let total_rays = stats.rays + stats.shadow_rays;
     // Previews trace one centred ray per pixel whatever the sample count.
-    let spp = if matches!(settings.integrator, Integrator::Whitted | Integrator::Photon) {
+    let spp = if matches!(settings.integrator, Integrator::Whitted | Integrator::Photon | Integrator::Path) {
         settings.samples
     } else {
         1
@@ -289,6 +305,24 @@ fn bench_rays(
     let height = in_range("--height", height, 1, limits::MAX_IMAGE_SIDE)?;
     let overrides = caustix::scene::Overrides { teapot_subdivisions };
     print!("{}", caustix::bench::ray_report(path, &overrides, width, height, repeats)?);
+    Ok(())
+}
+
+fn compare(image: &Path, reference: &Path, error_image: Option<&Path>, scale: f32) -> anyhow::Result<()> {
+    use caustix::render::image::Image;
+    let (a, b) = (Image::load(image)?, Image::load(reference)?);
+    let d = a.difference(&b).ok_or_else(|| {
+        anyhow::anyhow!("the images differ in size: {}x{} and {}x{}", a.width, a.height, b.width, b.height)
+    })?;
+    println!("rmse     {:.6}", d.rmse);
+    println!("rel_mse  {:.6}", d.rel_mse);
+    println!("mae      {:.6}", d.mae);
+    println!("mean     {:.6} (reference {:.6}, ratio {:.4})", d.means.0, d.means.1, d.means.0 / d.means.1);
+    if let Some(out) = error_image {
+        anyhow::ensure!(scale.is_finite() && scale > 0.0, "--error-scale must be greater than 0");
+        a.error_image(&b, scale).save(out, 0.0)?;
+        eprintln!("wrote {}", out.display());
+    }
     Ok(())
 }
 

@@ -138,17 +138,27 @@ impl PhotonMap {
     }
 
     /// Reflected radiance at `p` towards `wo`: the sum of `f_r * power` over
-    /// the nearest photons divided by the disc area `pi r^2`, with `r` the
-    /// distance to the farthest photon used. Photons arriving from below the
-    /// surface (`n` is the unit normal on the viewer's side) are ignored.
+    /// the `k - 1` nearest photons divided by the disc area `pi r^2`, with `r`
+    /// the distance to the `k`-th (unbiased for a uniform density, where
+    /// Jensen's `k` photons over the same disc are `k / (k - 1)` too bright). Photons arriving from below the
+    /// surface (`n` is the unit normal on the viewer's side), and photons on
+    /// surfaces facing another way (the other wall at a corner), are ignored.
     ///
     /// When fewer than `k` photons lie within the maximum radius, the disc is
     /// the whole search disc (`r = max_radius`): shrinking it to the few
     /// photons found would turn each stray photon into a bright speck.
     pub fn radiance(&self, p: Vec3, n: Vec3, wo: Vec3, material: &Material, estimate: &Estimate) -> Vec3 {
-        let found = self.nearest(p, estimate.k, estimate.max_radius);
+        let mut found = self.nearest(p, estimate.k, estimate.max_radius);
         let Some(&(farthest, _)) = found.last() else { return Vec3::ZERO };
-        let r2 = if found.len() < estimate.k { estimate.max_radius * estimate.max_radius } else { farthest };
+        let r2 = if found.len() < estimate.k {
+            estimate.max_radius * estimate.max_radius
+        } else {
+            // The k-th photon only marks the radius: it lies on the disc's
+            // edge by construction, so counting it would overestimate the
+            // density by k / (k - 1). Sum the k - 1 inside.
+            found.pop();
+            farthest
+        };
         if r2 <= 0.0 {
             return Vec3::ZERO;
         }
@@ -156,7 +166,10 @@ impl PhotonMap {
         let mut sum = Vec3::ZERO;
         for &(d2, i) in &found {
             let photon = &self.photons[i];
-            if photon.incoming.dot(n) <= 0.0 {
+            // Only photons that arrived from above, on a surface facing the
+            // same way: near a corner the search sphere also reaches the
+            // other wall, whose photons are not light arriving here.
+            if photon.incoming.dot(n) <= 0.0 || photon.normal.dot(n) < 0.9 {
                 continue;
             }
             let weight = match estimate.cone_filter {

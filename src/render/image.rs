@@ -86,6 +86,60 @@ impl Image {
     }
 }
 
+/// How far one image is from a reference, per channel value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Difference {
+    /// Root mean squared error.
+    pub rmse: f64,
+    /// Mean of `(a - b)^2 / (b^2 + 0.01)` (relative MSE, as in the rendering
+    /// literature; the 0.01 keeps black pixels from dominating).
+    pub rel_mse: f64,
+    /// Mean absolute error.
+    pub mae: f64,
+    /// Mean of the image and of the reference (all channels).
+    pub means: (f64, f64),
+}
+
+impl Image {
+    /// The difference of this image from `reference`; `None` if the sizes differ.
+    pub fn difference(&self, reference: &Image) -> Option<Difference> {
+        if (self.width, self.height) != (reference.width, reference.height) {
+            return None;
+        }
+        let n = (self.pixels.len() * 3) as f64;
+        let (mut se, mut rel, mut ae, mut ma, mut mb) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for (a, b) in self.pixels.iter().zip(&reference.pixels) {
+            for (x, y) in a.to_array().into_iter().zip(b.to_array()) {
+                let (x, y) = (x as f64, y as f64);
+                se += (x - y) * (x - y);
+                rel += (x - y) * (x - y) / (y * y + 0.01);
+                ae += (x - y).abs();
+                ma += x;
+                mb += y;
+            }
+        }
+        Some(Difference { rmse: (se / n).sqrt(), rel_mse: rel / n, mae: ae / n, means: (ma / n, mb / n) })
+    }
+
+    /// A false-colour picture of where this image differs from `reference`:
+    /// black where equal, through blue and green to red at `scale` or more
+    /// (absolute difference, averaged over channels).
+    pub fn error_image(&self, reference: &Image, scale: f32) -> Image {
+        let pixels = self
+            .pixels
+            .iter()
+            .zip(&reference.pixels)
+            .map(|(a, b)| {
+                let e = ((*a - *b).abs().element_sum() / 3.0 / scale).clamp(0.0, 1.0);
+                // A simple ramp: blue -> green -> red.
+                Vec3::new((2.0 * e - 1.0).max(0.0), 1.0 - (2.0 * e - 1.0).abs(), (1.0 - 2.0 * e).max(0.0))
+                    * e.sqrt()
+            })
+            .collect();
+        Image { width: self.width, height: self.height, pixels }
+    }
+}
+
 fn image_error(path: &Path, e: image::ImageError) -> Error {
     match e {
         image::ImageError::IoError(io) => Error::io(path, io),
@@ -145,6 +199,17 @@ mod tests {
         }
         let err = image.save(&dir.path().join("a.jpg"), 0.0).unwrap_err().to_string();
         assert!(err.contains(".png, .exr or .hdr"), "{err}");
+    }
+
+    #[test]
+    fn differences_are_measured() {
+        let a = Image { width: 2, height: 1, pixels: vec![Vec3::ONE, Vec3::ZERO] };
+        let b = Image { width: 2, height: 1, pixels: vec![Vec3::ONE, Vec3::splat(0.5)] };
+        let d = a.difference(&b).unwrap();
+        assert!((d.rmse - (0.125f64).sqrt()).abs() < 1e-9 && (d.mae - 0.25).abs() < 1e-9);
+        assert_eq!(a.difference(&a).unwrap().rmse, 0.0);
+        assert!(a.difference(&Image { width: 1, height: 1, pixels: vec![Vec3::ONE] }).is_none());
+        assert_eq!(a.error_image(&a, 1.0).pixels, vec![Vec3::ZERO; 2]);
     }
 
     #[test]

@@ -7,6 +7,7 @@
 
 pub mod camera;
 pub mod image;
+pub mod path;
 pub mod surface;
 pub mod whitted;
 
@@ -34,6 +35,9 @@ pub enum Integrator {
     Photon,
     /// Whitted ray tracing: direct light, mirrors, refraction with Fresnel.
     Whitted,
+    /// The unbiased reference: path tracing with next-event estimation and
+    /// multiple importance sampling for area lights.
+    Path,
     /// Geometry preview: smooth normals as colours, `0.5 * (n + 1)`, dimmed by
     /// the angle to the viewer so shapes read clearly.
     Normals,
@@ -205,6 +209,7 @@ pub fn render(
     let maps =
         (settings.integrator == Integrator::Photon).then(|| build_maps(scene, accel, &settings.photons));
     let whitted = Whitted { scene, accel, settings, maps: maps.as_ref() };
+    let path = path::PathTracer { scene, accel, settings };
     // The depth preview maps distance from the eye to the scene's far side to 1..0.
     let b = scene.bounds();
     let far = (b.min - scene.camera.eye).length().max((b.max - scene.camera.eye).length());
@@ -223,6 +228,7 @@ pub fn render(
                     let mut rng = Rng::new(settings.seed, (y as u64) * width as u64 + x as u64);
                     pixels.push(match settings.integrator {
                         Integrator::Whitted | Integrator::Photon => whitted.pixel(x, y, &mut rng, &mut count),
+                        Integrator::Path => path.pixel(x, y, &mut rng, &mut count),
                         preview => preview_pixel(scene, accel, preview, far, (x, y), settings, &mut count),
                     });
                 }

@@ -1,0 +1,111 @@
+//! The photon mapper against the unbiased path tracer on the Cornell box
+//! (diffuse walls, a glass and a mirror sphere, a small area light): they
+//! must agree, and the photon mapper must get closer as photons rise. This
+//! is the test that shows no light is counted twice or lost.
+
+use std::path::Path;
+
+use caustix::accel::Backend;
+use caustix::render::image::Image;
+use caustix::render::{render, Integrator, RenderSettings};
+use caustix::scene::Scene;
+
+const SIZE: u32 = 32;
+const BLOCK: u32 = 8;
+
+fn cornell() -> Scene {
+    Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml")).unwrap()
+}
+
+fn image(scene: &Scene, settings: &RenderSettings) -> Image {
+    let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
+    render(scene, accel.as_ref(), settings, &|_| {}).image("final").unwrap()
+}
+
+/// Pixels that see the light panel itself (radiance about 51 there) are
+/// left out: how much of a pixel the panel covers depends on the camera
+/// samples, and one edge pixel would outweigh the whole rest of the image.
+fn lit_scene(reference: &Image, x: u32, y: u32) -> bool {
+    reference.get(x, y).max_element() < 5.0
+}
+
+/// Mean radiance (all channels) of each BLOCK x BLOCK block, over the lit
+/// scene: averaging away pixel noise, keeping where the light goes.
+fn blocks(img: &Image, reference: &Image) -> Vec<f32> {
+    let n = SIZE / BLOCK;
+    (0..n * n)
+        .map(|b| {
+            let (bx, by) = (b % n * BLOCK, b / n * BLOCK);
+            let (mut sum, mut count) = (0.0, 0);
+            for y in by..by + BLOCK {
+                for x in bx..bx + BLOCK {
+                    if lit_scene(reference, x, y) {
+                        sum += img.get(x, y).element_sum() / 3.0;
+                        count += 1;
+                    }
+                }
+            }
+            sum / count.max(1) as f32
+        })
+        .collect()
+}
+
+/// Mean radiance over the lit scene.
+fn mean(img: &Image, reference: &Image) -> f32 {
+    let (mut sum, mut count) = (0.0, 0);
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            if lit_scene(reference, x, y) {
+                sum += img.get(x, y).element_sum() / 3.0;
+                count += 1;
+            }
+        }
+    }
+    sum / count as f32
+}
+
+/// Mean relative difference of the blocks.
+fn block_error(a: &[f32], reference: &[f32]) -> f32 {
+    a.iter().zip(reference).map(|(x, r)| (x - r).abs() / r.max(1e-3)).sum::<f32>() / a.len() as f32
+}
+
+/// Measured (32 x 32, path tracer 1024 spp, photon mapper 16 spp, 256
+/// gather rays): block error 2.68%, 1.36%, 1.50% and lit-scene mean -0.12%,
+/// +0.32%, +1.37% at 2k, 20k, 200k global photons. The error falls to the
+/// noise floor of this comparison; the mean drifts up with the global photon
+/// count, within the 2% asserted (an open question, see the issue notes).
+#[test]
+fn photon_mapping_agrees_with_the_path_tracer_and_improves_with_photons() {
+    let scene = cornell();
+    let base = RenderSettings { width: SIZE, height: SIZE, ..RenderSettings::from_scene(&scene) };
+    let reference =
+        image(&scene, &RenderSettings { integrator: Integrator::Path, samples: 1024, ..base.clone() });
+    let reference_blocks = blocks(&reference, &reference);
+    let reference_mean = mean(&reference, &reference);
+
+    let mut errors = Vec::new();
+    for photons in [2_000u32, 20_000, 200_000] {
+        let mut settings = RenderSettings { integrator: Integrator::Photon, samples: 16, ..base.clone() };
+        settings.photons.global_photons = photons;
+        settings.photons.caustic_photons = 2 * photons;
+        settings.photons.gather_rays = 256;
+        let img = image(&scene, &settings);
+        let e = block_error(&blocks(&img, &reference), &reference_blocks);
+        let m = mean(&img, &reference);
+        eprintln!(
+            "{photons} global photons: block error {:.2}%, mean {m:.4} vs path-traced {reference_mean:.4} ({:+.2}%)",
+            100.0 * e,
+            100.0 * (m / reference_mean - 1.0),
+        );
+        errors.push((e, m / reference_mean - 1.0));
+    }
+    assert!(
+        errors[0].0 > errors[1].0 && errors[0].0 > errors[2].0,
+        "error must fall as photons rise: {errors:?}"
+    );
+    for (e, bias) in &errors {
+        assert!(bias.abs() < 0.02, "lit-scene mean differs by {:.2}%", 100.0 * bias);
+        assert!(*e < 0.04, "block error {:.2}%", 100.0 * e);
+    }
+    assert!(errors[2].0 < 0.025, "block error at 200k photons {:.2}%", 100.0 * errors[2].0);
+}
