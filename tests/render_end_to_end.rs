@@ -135,3 +135,40 @@ fn cli_bench_rays_prints_a_table_for_every_method() {
     // All methods found the same hits (the report flags any difference).
     assert!(!stdout.contains("hits differ"), "{stdout}");
 }
+
+#[test]
+fn cli_compare_measures_differences_and_refuses_mismatched_sizes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
+    let render = |name: &str, width: &str| {
+        let out = dir.path().join(name);
+        let run = caustix(&[
+            "render".as_ref(),
+            scene.as_os_str(),
+            "-o".as_ref(),
+            out.as_os_str(),
+            "--width".as_ref(),
+            width.as_ref(),
+            "--height".as_ref(),
+            "16".as_ref(),
+        ]);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        out
+    };
+    let (a, b, small) = (render("a.exr", "16"), render("b.exr", "16"), render("c.exr", "8"));
+    let same = caustix(&["compare".as_ref(), a.as_os_str(), b.as_os_str()]);
+    let stdout = String::from_utf8_lossy(&same.stdout);
+    assert!(same.status.success() && stdout.contains("rmse     0.000000"), "{stdout}");
+    let err_png = dir.path().join("err.png");
+    let with_image = caustix(&[
+        "compare".as_ref(),
+        a.as_os_str(),
+        b.as_os_str(),
+        "--error-image".as_ref(),
+        err_png.as_os_str(),
+    ]);
+    assert!(with_image.status.success() && err_png.exists());
+    let bad = caustix(&["compare".as_ref(), a.as_os_str(), small.as_os_str()]);
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("differ in size: 16x16 and 8x16"));
+}
