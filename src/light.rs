@@ -188,6 +188,15 @@ impl Light {
     }
 }
 
+/// The nearest of `lights` that `ray` hits on its emitting side before
+/// `ray.t_max`: the light, the ray parameter, and the radiance towards the ray.
+pub fn nearest_emitter<'a>(lights: &'a [Light], ray: &Ray) -> Option<(&'a Light, f32, Vec3)> {
+    lights
+        .iter()
+        .filter_map(|light| light.intersect(ray).map(|(t, radiance)| (light, t, radiance)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
 /// The smooth edge of a spot light: 1 inside `falloff_start`, 0 outside
 /// `cone_angle`, and a smoothstep in the cosine between (as pbrt-v4 does).
 fn spot_falloff(cos_theta: f32, cone_angle: f32, falloff_start: f32) -> f32 {

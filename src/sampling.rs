@@ -72,6 +72,15 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).max(0.0).sqrt())
 }
 
+/// A direction about +z distributed as the normalised Phong lobe `cos^e`
+/// (pdf `(e + 1) / (2 pi) cos^e` of the angle to +z).
+pub fn phong_lobe(u: Vec2, exponent: f32) -> Vec3 {
+    let cos = u.x.powf(1.0 / (exponent + 1.0));
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)
+}
+
 /// A uniformly distributed unit vector; pdf `1 / (4 pi)`.
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;

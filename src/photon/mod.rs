@@ -23,7 +23,7 @@ use rayon::prelude::*;
 
 use crate::accel::{Intersector, Ray};
 use crate::render::surface::SurfacePoint;
-use crate::sampling::{around, cosine_hemisphere, Rng};
+use crate::sampling::{around, cosine_hemisphere, phong_lobe, Rng};
 use crate::scene::Scene;
 pub use map::{Estimate, Photon, PhotonMap};
 
@@ -349,12 +349,7 @@ fn trace_photon(
                 // Sample the normalised Phong lobe around the mirror direction
                 // (pdf (e+1)/(2 pi) cos^e); f cos / pdf = specular (e+2)/(e+1) cos.
                 let e = m.phong_exponent;
-                let u = rng.uniform2();
-                let cos_a = u.x.powf(1.0 / (e + 1.0));
-                let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-                let phi = std::f32::consts::TAU * u.y;
-                let local = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
-                let d = around(sp.reflect(dir), local);
+                let d = around(sp.reflect(dir), phong_lobe(rng.uniform2(), e));
                 let cos = d.dot(sp.ns);
                 if cos <= 0.0 {
                     return;

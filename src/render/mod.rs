@@ -193,6 +193,28 @@ impl Rendered {
     }
 }
 
+/// Averages `radiance` over a pixel's camera rays: `settings.samples`
+/// stratified, jittered samples (a single sample goes through the centre).
+pub fn average_over_pixel(
+    scene: &Scene,
+    settings: &RenderSettings,
+    (x, y): (u32, u32),
+    rng: &mut Rng,
+    mut radiance: impl FnMut(crate::accel::Ray, &mut Rng) -> Components,
+) -> Components {
+    let mut sum = Components::default();
+    for i in 0..settings.samples {
+        let offset = if settings.samples == 1 {
+            glam::Vec2::splat(0.5)
+        } else {
+            crate::sampling::stratified(i, settings.samples, rng)
+        };
+        let ray = scene.camera.ray(x as f32 + offset.x, y as f32 + offset.y, settings.width, settings.height);
+        sum += radiance(ray, rng);
+    }
+    sum * (1.0 / settings.samples as f32)
+}
+
 /// Side of the square tiles handed to threads.
 const TILE: u32 = 16;
 

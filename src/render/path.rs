@@ -18,11 +18,11 @@ use glam::Vec3;
 
 use super::surface::SurfacePoint;
 use super::whitted::RayCount;
-use super::{Components, RenderSettings};
+use super::{average_over_pixel, Components, RenderSettings};
 use crate::accel::{Intersector, Ray};
-use crate::light::Light;
+use crate::light::{nearest_emitter, Light};
 use crate::material::Material;
-use crate::sampling::{around, cosine_hemisphere, stratified, Rng};
+use crate::sampling::{around, cosine_hemisphere, phong_lobe, Rng};
 use crate::scene::Scene;
 
 /// The path tracer over one scene and intersector.
@@ -71,14 +71,7 @@ impl Choice {
 impl PathTracer<'_> {
     /// One pixel: `settings.samples` stratified jittered paths, averaged.
     pub fn pixel(&self, x: u32, y: u32, rng: &mut Rng, count: &mut RayCount) -> Components {
-        let s = self.settings;
-        let mut sum = Components::default();
-        for i in 0..s.samples {
-            let offset = if s.samples == 1 { glam::Vec2::splat(0.5) } else { stratified(i, s.samples, rng) };
-            let ray = self.scene.camera.ray(x as f32 + offset.x, y as f32 + offset.y, s.width, s.height);
-            sum += self.radiance(ray, rng, count);
-        }
-        sum * (1.0 / s.samples as f32)
+        average_over_pixel(self.scene, self.settings, (x, y), rng, |ray, rng| self.radiance(ray, rng, count))
     }
 
     /// Radiance along a camera ray. What the camera's first vertex receives
@@ -102,7 +95,7 @@ impl PathTracer<'_> {
             count.closest += 1;
             let hit = self.accel.intersect(&ray);
             let nearest = Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..ray };
-            if let Some((light, t, emitted)) = self.emitted(&nearest) {
+            if let Some((light, t, emitted)) = nearest_emitter(&self.scene.lights, &nearest) {
                 let weight = match last_pdf {
                     None => 1.0,
                     Some(p_bsdf) => {
@@ -166,12 +159,7 @@ impl PathTracer<'_> {
             let wi = if xi < choice.diffuse {
                 around(sp.ns, cosine_hemisphere(rng.uniform2()))
             } else {
-                let e = m.phong_exponent;
-                let u = rng.uniform2();
-                let cos_a = u.x.powf(1.0 / (e + 1.0));
-                let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-                let phi = std::f32::consts::TAU * u.y;
-                around(sp.reflect(dir), Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a))
+                around(sp.reflect(dir), phong_lobe(rng.uniform2(), m.phong_exponent))
             };
             let cos = wi.dot(sp.ns);
             let pdf = choice.pdf(m, sp.ns, wi, wo);
@@ -233,20 +221,6 @@ impl PathTracer<'_> {
             sum += f * ls.irradiance * cos * weight;
         }
         sum
-    }
-
-    /// The nearest area light `ray` hits before `t_max`: the light, where,
-    /// and its radiance.
-    fn emitted(&self, ray: &Ray) -> Option<(&Light, f32, Vec3)> {
-        let mut nearest: Option<(&Light, f32, Vec3)> = None;
-        for light in &self.scene.lights {
-            if let Some((t, radiance)) = light.intersect(ray) {
-                if nearest.is_none_or(|(_, best, _)| t < best) {
-                    nearest = Some((light, t, radiance));
-                }
-            }
-        }
-        nearest
     }
 }
 

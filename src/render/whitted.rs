@@ -10,8 +10,9 @@
 use glam::Vec3;
 
 use super::surface::SurfacePoint;
-use super::{Components, RenderSettings};
+use super::{average_over_pixel, Components, RenderSettings};
 use crate::accel::{Intersector, Ray};
+use crate::light::nearest_emitter;
 use crate::photon::{PhotonMap, PhotonMaps};
 use crate::sampling::{around, cosine_hemisphere, stratified, Rng};
 use crate::scene::Scene;
@@ -53,7 +54,7 @@ impl Whitted<'_> {
         let hit = self.accel.intersect(ray);
         // Area lights are not geometry: check whether one is nearer.
         let nearest = Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..*ray };
-        if let Some(emitted) = self.emitted(&nearest) {
+        if let Some((_, _, emitted)) = nearest_emitter(&self.scene.lights, &nearest) {
             return Components::emitted(emitted, depth);
         }
         let Some(hit) = hit else { return Components::default() };
@@ -176,19 +177,6 @@ impl Whitted<'_> {
         weight * self.gather_radiance(&sp.spawn(next), global, bounces + 1, rng, count)
     }
 
-    /// Emitted radiance of the nearest area light hit before `ray.t_max`.
-    fn emitted(&self, ray: &Ray) -> Option<Vec3> {
-        let mut nearest: Option<(f32, Vec3)> = None;
-        for light in &self.scene.lights {
-            if let Some((t, radiance)) = light.intersect(ray) {
-                if nearest.is_none_or(|(best, _)| t < best) {
-                    nearest = Some((t, radiance));
-                }
-            }
-        }
-        nearest.map(|(_, radiance)| radiance)
-    }
-
     /// Light arriving straight from the lights and reflected towards `wo` by
     /// the diffuse and glossy parts of the material.
     fn direct_light(&self, sp: &SurfacePoint, wo: Vec3, rng: &mut Rng, count: &mut RayCount) -> Vec3 {
@@ -217,16 +205,10 @@ impl Whitted<'_> {
         sum
     }
 
-    /// The radiance of one pixel: `settings.samples` stratified jittered
-    /// camera rays (a single sample goes through the pixel's centre), averaged.
+    /// The radiance of one pixel, averaged over its camera samples.
     pub fn pixel(&self, x: u32, y: u32, rng: &mut Rng, count: &mut RayCount) -> Components {
-        let s = self.settings;
-        let mut sum = Components::default();
-        for i in 0..s.samples {
-            let offset = if s.samples == 1 { glam::Vec2::splat(0.5) } else { stratified(i, s.samples, rng) };
-            let ray = self.scene.camera.ray(x as f32 + offset.x, y as f32 + offset.y, s.width, s.height);
-            sum += self.radiance(&ray, 0, Vec3::ONE, rng, count);
-        }
-        sum * (1.0 / s.samples as f32)
+        average_over_pixel(self.scene, self.settings, (x, y), rng, |ray, rng| {
+            self.radiance(&ray, 0, Vec3::ONE, rng, count)
+        })
     }
 }
