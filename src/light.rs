@@ -77,18 +77,11 @@ impl Light {
     /// spot's cone).
     pub fn sample_incident(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         match *self {
-            Light::Point { position, power } => {
-                let d2 = (position - p).length_squared();
-                Some(LightSample { position, irradiance: power / (4.0 * PI * d2) })
-            }
-            Light::Spot { position, direction, cone_angle, falloff_start, power } => {
+            Light::Point { position, .. } | Light::Spot { position, .. } => {
                 let to_p = p - position;
                 let d2 = to_p.length_squared();
-                let falloff = spot_falloff(direction.dot(to_p / d2.sqrt()), cone_angle, falloff_start);
-                (falloff > 0.0).then(|| LightSample {
-                    position,
-                    irradiance: spot_peak_intensity(power, cone_angle, falloff_start) * falloff / d2,
-                })
+                let (_, intensity) = self.intensity(to_p / d2.sqrt())?;
+                Some(LightSample { position, irradiance: intensity / d2 })
             }
             Light::Area { center, u: eu, v: ev, power } => {
                 // Uniform over the area (pdf 1/A) of a Lambertian emitter with
@@ -138,7 +131,7 @@ impl Light {
                 let dir = around(eu.cross(ev).normalize(), cosine_hemisphere(v));
                 (Ray::new(origin, dir), power)
             }
-            Light::Spot { position, direction, cone_angle, falloff_start, power } => {
+            Light::Spot { position, direction, cone_angle, .. } => {
                 // Uniform in solid angle over the cone (pdf 1 / omega), so the
                 // photon carries intensity / pdf = I(theta) * omega.
                 let cos_total = cone_angle.cos();
@@ -147,8 +140,7 @@ impl Light {
                 let phi = std::f32::consts::TAU * v.y;
                 let dir = around(direction, Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t));
                 let omega = 2.0 * PI * (1.0 - cos_total);
-                let intensity = spot_peak_intensity(power, cone_angle, falloff_start)
-                    * spot_falloff(cos_t, cone_angle, falloff_start);
+                let intensity = self.intensity(dir).map_or(Vec3::ZERO, |(_, i)| i);
                 (Ray::new(position, dir), intensity * omega)
             }
         }

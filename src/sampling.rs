@@ -81,6 +81,12 @@ pub fn phong_lobe(u: Vec2, exponent: f32) -> Vec3 {
     Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)
 }
 
+/// The density of [`phong_lobe`] at a direction whose angle to the lobe's
+/// axis has cosine `cos`: `(e + 1) / (2 pi) cos^e` (0 behind the axis).
+pub fn phong_lobe_pdf(cos: f32, exponent: f32) -> f32 {
+    (exponent + 1.0) / std::f32::consts::TAU * cos.max(0.0).powf(exponent)
+}
+
 /// A uniformly distributed unit vector; pdf `1 / (4 pi)`.
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
@@ -153,6 +159,24 @@ mod tests {
             mean_cos += d.z as f64 / n as f64;
         }
         assert!((mean_cos - 2.0 / 3.0).abs() < 0.005, "{mean_cos}");
+    }
+
+    #[test]
+    fn phong_lobe_pdf_integrates_to_one_and_matches_the_sampler() {
+        for e in [1.0f32, 20.0] {
+            // Midpoint rule in cos over the hemisphere: integral of pdf d omega = 1.
+            let steps = 100_000;
+            let integral: f64 =
+                (0..steps).map(|i| phong_lobe_pdf((i as f32 + 0.5) / steps as f32, e) as f64).sum::<f64>()
+                    * std::f64::consts::TAU
+                    / steps as f64;
+            assert!((integral - 1.0).abs() < 1e-3, "e = {e}: {integral}");
+            // Under that pdf E[cos] = (e + 1) / (e + 2); the sampler must agree.
+            let mut r = Rng::new(6, 6);
+            let n = 100_000;
+            let mean: f32 = (0..n).map(|_| phong_lobe(r.uniform2(), e).z).sum::<f32>() / n as f32;
+            assert!((mean - (e + 1.0) / (e + 2.0)).abs() < 0.005, "e = {e}: {mean}");
+        }
     }
 
     #[test]

@@ -365,13 +365,7 @@ fn trace_photon(
             _ => {
                 specular_bounces += 1;
                 power *= parts[3] / probability;
-                // Fresnel chooses between reflection and refraction with
-                // exactly its own weights, so the power needs no rescaling.
-                let (kr, refracted) = sp.refract(dir, m.ior);
-                match refracted {
-                    Some(t) if rng.uniform() >= kr => t,
-                    _ => sp.reflect(dir),
-                }
+                sp.dielectric_direction(dir, m.ior, rng)
             }
         };
         if new_dir.dot(sp.ng) == 0.0 {

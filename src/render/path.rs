@@ -12,7 +12,7 @@
 //! with a delta light) has zero probability of being found by a path traced
 //! from the camera: such caustics need area lights in reference scenes.
 
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
 
 use glam::Vec3;
 
@@ -22,7 +22,7 @@ use super::{average_over_pixel, Components, RenderSettings};
 use crate::accel::{Intersector, Ray};
 use crate::light::{nearest_emitter, Light};
 use crate::material::Material;
-use crate::sampling::{around, cosine_hemisphere, phong_lobe, Rng};
+use crate::sampling::{around, cosine_hemisphere, phong_lobe, phong_lobe_pdf, Rng};
 use crate::scene::Scene;
 
 /// The path tracer over one scene and intersector.
@@ -61,8 +61,7 @@ impl Choice {
         let mut pdf = self.diffuse * cos * FRAC_1_PI;
         if self.glossy > 0.0 {
             let e = m.phong_exponent;
-            let cos_a = crate::optics::reflect(-wo, n).dot(wi).max(0.0);
-            pdf += self.glossy * (e + 1.0) / (2.0 * PI) * cos_a.powf(e);
+            pdf += self.glossy * phong_lobe_pdf(crate::optics::reflect(-wo, n).dot(wi), e);
         }
         pdf
     }
@@ -174,12 +173,7 @@ impl PathTracer<'_> {
         if choice.glass <= 0.0 {
             return None;
         }
-        // Fresnel chooses between reflection and refraction with its own weights.
-        let (kr, refracted) = sp.refract(dir, m.ior);
-        let next = match refracted {
-            Some(t) if rng.uniform() >= kr => t,
-            _ => sp.reflect(dir),
-        };
+        let next = sp.dielectric_direction(dir, m.ior, rng);
         Some((next, (None, m.transmittance / choice.glass)))
     }
 

@@ -5,6 +5,7 @@ use glam::Vec3;
 
 use crate::accel::{Hit, Ray};
 use crate::optics;
+use crate::sampling::Rng;
 use crate::scene::Scene;
 
 /// A point on a surface, seen from an incoming ray.
@@ -90,6 +91,19 @@ impl SurfacePoint {
             _ => optics::refract(dir, self.ng, eta).filter(|t| t.dot(self.ng) < 0.0),
         };
         (kr, t)
+    }
+
+    /// One direction out of a smooth dielectric of index `ior` for `dir`:
+    /// refracted with probability `1 - kr`, else reflected (always on total
+    /// internal reflection). Fresnel chooses with exactly its own weights, so
+    /// whatever follows needs no rescaling. Draws a number only when there is
+    /// a choice.
+    pub fn dielectric_direction(&self, dir: Vec3, ior: f32, rng: &mut Rng) -> Vec3 {
+        let (kr, refracted) = self.refract(dir, ior);
+        match refracted {
+            Some(t) if rng.uniform() >= kr => t,
+            _ => self.reflect(dir),
+        }
     }
 
     /// A shadow ray from the surface to `target`, stopping just short of it

@@ -167,12 +167,7 @@ impl Whitted<'_> {
         let (weight, next) = if rng.uniform() * (mirror + glass) < mirror {
             (m.mirror * ((mirror + glass) / mirror), sp.reflect(dir))
         } else {
-            let (kr, refracted) = sp.refract(dir, m.ior);
-            let next = match refracted {
-                Some(t) if rng.uniform() >= kr => t,
-                _ => sp.reflect(dir),
-            };
-            (m.transmittance * ((mirror + glass) / glass), next)
+            (m.transmittance * ((mirror + glass) / glass), sp.dielectric_direction(dir, m.ior, rng))
         };
         weight * self.gather_radiance(&sp.spawn(next), global, bounces + 1, rng, count)
     }
