@@ -30,11 +30,6 @@ impl Bounds {
         Bounds { min: self.min.min(other.min), max: self.max.max(other.max) }
     }
 
-    /// Whether the box holds no point.
-    pub fn is_empty(&self) -> bool {
-        self.min.cmpgt(self.max).any()
-    }
-
     /// Half the surface area (what the SAH compares); 0 for an empty box.
     pub fn half_area(&self) -> f32 {
         let d = (self.max - self.min).max(Vec3::ZERO);
@@ -48,10 +43,8 @@ mod tests {
 
     #[test]
     fn boxes_grow_and_measure() {
-        assert!(Bounds::EMPTY.is_empty());
         assert_eq!(Bounds::EMPTY.half_area(), 0.0);
         let b = Bounds::of(&[Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0)]);
-        assert!(!b.is_empty());
         assert_eq!(b.half_area(), 1.0 * 2.0 + 2.0 * 3.0 + 3.0 * 1.0);
         assert_eq!(b.union(Bounds::of(&[Vec3::splat(-1.0)])).min, Vec3::splat(-1.0));
     }

@@ -118,12 +118,6 @@ impl PhotonMap {
         &self.photons
     }
 
-    /// Bytes of photon records and kd-tree points (not counting the tree's
-    /// internal nodes, a few percent more).
-    pub fn bytes(&self) -> usize {
-        self.photons.len() * (std::mem::size_of::<Photon>() + 12 + 4)
-    }
-
     /// The indices of up to `k` photons nearest `p` within `max_radius`,
     /// with their squared distances, nearest first.
     fn nearest(&self, p: Vec3, k: usize, max_radius: f32) -> Vec<(f32, usize)> {

@@ -18,13 +18,6 @@ pub struct Image {
 }
 
 impl Image {
-    /// An image from whole rows.
-    pub fn from_rows(width: u32, height: u32, rows: Vec<Vec<Vec3>>) -> Image {
-        let pixels: Vec<Vec3> = rows.into_iter().flatten().collect();
-        assert_eq!(pixels.len(), width as usize * height as usize, "rows do not fill the image");
-        Image { width, height, pixels }
-    }
-
     /// The pixel at column `x`, row `y` (row 0 is the top).
     pub fn get(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[(y * self.width + x) as usize]
