@@ -8,6 +8,8 @@
 //!
 //! Every measurement is the best of several runs, all threads busy.
 
+pub mod error;
+
 use std::time::Instant;
 
 use rayon::prelude::*;

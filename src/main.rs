@@ -73,6 +73,35 @@ enum BenchCommand {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+    /// Run time against error: renders the scene with each integrator at
+    /// doubling budgets, compares each image with a reference, and writes a
+    /// CSV table and a log-log plot of error against seconds.
+    Error(ErrorArgs),
+}
+
+#[derive(clap::Args)]
+struct ErrorArgs {
+    /// The scene file.
+    scene: PathBuf,
+    /// The reference image (.exr or .hdr), e.g. a long path-traced render;
+    /// every render is made at its size.
+    #[arg(long)]
+    reference: PathBuf,
+    /// Integrators to measure (comma-separated).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "path,photon,sppm")]
+    integrators: Vec<Integrator>,
+    /// Budgets per integrator, each double the one before.
+    #[arg(long, default_value_t = 6)]
+    levels: u32,
+    /// Where to write the table.
+    #[arg(long, default_value = "error.csv")]
+    csv: PathBuf,
+    /// Where to draw the log-log plot of error against seconds (SVG).
+    #[arg(long, default_value = "error.svg")]
+    plot: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 #[derive(clap::Args)]
@@ -126,6 +155,15 @@ struct RenderArgs {
     /// global map directly (overrides [photons] gather_rays).
     #[arg(long)]
     gather_rays: Option<u32>,
+    /// Passes of progressive photon mapping (overrides [photons] passes).
+    #[arg(long)]
+    passes: Option<u32>,
+    /// Photons per pass of progressive photon mapping (overrides [photons] pass_photons).
+    #[arg(long)]
+    pass_photons: Option<u32>,
+    /// Starting radius of progressive photon mapping (overrides [photons] sppm_radius).
+    #[arg(long)]
+    sppm_radius: Option<f32>,
     /// Exposure for PNG output, in stops: each pixel is multiplied by 2^EXPOSURE.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
@@ -158,6 +196,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(BenchCommand::Rays { scene, teapot_subdivisions, width, height, repeats }) => {
             bench_rays(&scene, teapot_subdivisions, width, height, repeats)
         }
+        Command::Bench(BenchCommand::Error(args)) => bench_error(args),
     }
 }
 
@@ -208,9 +247,17 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         in_range("--caustic-k", args.caustic_k.unwrap_or(p.caustic_estimate.k as u32), 1, 100_000)? as usize;
     p.gather_rays =
         in_range("--gather-rays", args.gather_rays.unwrap_or(p.gather_rays), 0, limits::MAX_SAMPLES)?;
+    p.sppm.passes = in_range("--passes", args.passes.unwrap_or(p.sppm.passes), 1, limits::MAX_PASSES)?;
+    p.sppm.photons_per_pass = in_range(
+        "--pass-photons",
+        args.pass_photons.unwrap_or(p.sppm.photons_per_pass),
+        1,
+        limits::MAX_PHOTONS,
+    )?;
     for (flag, value, radius) in [
         ("--global-radius", args.global_radius, &mut p.global_estimate.max_radius),
         ("--caustic-radius", args.caustic_radius, &mut p.caustic_estimate.max_radius),
+        ("--sppm-radius", args.sppm_radius, &mut p.sppm.initial_radius),
     ] {
         if let Some(r) = value {
             anyhow::ensure!(r.is_finite() && r > 0.0, "{flag} must be a distance greater than 0, found {r}");
@@ -237,8 +284,8 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
     let accel =
         caustix::accel::build(backend, &scene.triangle_views()).context("building the ray intersector")?;
 
-    let pixels = settings.width as u64 * settings.height as u64;
-    let bar = if std::io::stderr().is_terminal() { ProgressBar::new(pixels) } else { ProgressBar::hidden() };
+    let work = caustix::render::work_units(&settings);
+    let bar = if std::io::stderr().is_terminal() { ProgressBar::new(work) } else { ProgressBar::hidden() };
     bar.set_style(
         ProgressStyle::with_template(
             "{spinner} rendering [{bar:40}] {percent}% {elapsed} elapsed, {eta} left",
@@ -261,10 +308,10 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
     let seconds = stats.elapsed.as_secs_f64();
     let total_rays = stats.rays + stats.shadow_rays;
     // Previews trace one centred ray per pixel whatever the sample count.
-    let spp = if matches!(settings.integrator, Integrator::Whitted | Integrator::Photon | Integrator::Path) {
-        settings.samples
-    } else {
-        1
+    let spp = match settings.integrator {
+        Integrator::Whitted | Integrator::Photon | Integrator::Path => settings.samples,
+        Integrator::Sppm => settings.photons.sppm.passes,
+        Integrator::Normals | Integrator::Depth => 1,
     };
     if let Some(p) = &stats.photons {
         eprintln!(
@@ -305,6 +352,60 @@ fn bench_rays(
     let height = in_range("--height", height, 1, limits::MAX_IMAGE_SIDE)?;
     let overrides = caustix::scene::Overrides { teapot_subdivisions };
     print!("{}", caustix::bench::ray_report(path, &overrides, width, height, repeats)?);
+    Ok(())
+}
+
+fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
+    use caustix::bench::error;
+    let scene = load(&args.scene)?;
+    let reference = caustix::render::image::Image::load(&args.reference)?;
+    let levels = in_range("--levels", args.levels, 1, 16)?;
+    anyhow::ensure!(
+        args.plot.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg")),
+        "--plot {}: the plot is written as SVG; give a file name ending in .svg",
+        args.plot.display()
+    );
+    let mut integrators = args.integrators.clone();
+    integrators.dedup();
+    if let Some(bad) =
+        integrators.iter().find(|i| !matches!(i, Integrator::Path | Integrator::Photon | Integrator::Sppm))
+    {
+        anyhow::bail!("--integrators: {} is not measured; choose from path, photon, sppm", error::name(*bad));
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("starting worker threads")?;
+    let accel = caustix::accel::build(scene.render.backend, &scene.triangle_views())
+        .context("building the ray intersector")?;
+    let settings = RenderSettings::from_scene(&scene);
+    eprintln!(
+        "measuring {} at {}x{} against {}, {} levels each",
+        args.scene.display(),
+        reference.width,
+        reference.height,
+        args.reference.display(),
+        levels
+    );
+    let points = pool.install(|| {
+        error::measure(&scene, accel.as_ref(), &settings, &reference, &integrators, levels, &mut |p| {
+            eprintln!(
+                "{:>6} level {}: {:>8.2} s, RMSE {:.5}, mean ratio {:.4}  ({})",
+                error::name(p.integrator),
+                p.level,
+                p.seconds,
+                p.error.rmse,
+                p.error.means.0 / p.error.means.1,
+                p.setting
+            )
+        })
+    });
+    std::fs::write(&args.csv, error::csv(&points))
+        .with_context(|| format!("writing {}", args.csv.display()))?;
+    let title =
+        format!("{}: error against time", args.scene.file_stem().unwrap_or_default().to_string_lossy());
+    error::plot(&points, &title, &args.plot)?;
+    eprintln!("wrote {} and {}", args.csv.display(), args.plot.display());
     Ok(())
 }
 

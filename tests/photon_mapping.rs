@@ -221,3 +221,38 @@ fn cli_says_which_maps_it_skipped_and_why() {
         String::from_utf8_lossy(&bad.stderr).contains("--caustic-radius must be a distance greater than 0")
     );
 }
+
+/// An area light's front is opaque and black for photons, as it is for
+/// camera paths (which stop there): a photon passing through it would light
+/// what lies behind, which no camera path can see, and add light that the
+/// path tracer does not have.
+#[test]
+fn photons_stop_at_the_front_of_an_area_light() {
+    let text = r#"
+        [camera]
+        eye = [0, 1, 3]
+        look_at = [0, 1, 0]
+        [materials.white]
+        diffuse = 0.8
+        [[point_light]]
+        position = [0, 1, 0]
+        power = 100
+        [[area_light]]              # a dim panel facing down, 0.9 above the point light
+        center = [0, 1.9, 0]
+        u = [0.5, 0, 0]
+        v = [0, 0, 0.5]
+        power = 0.001
+        [[quad]]                    # ceiling, facing down
+        center = [0, 2, 0]
+        u = [4, 0, 0]
+        v = [0, 0, 4]
+        material = "white"
+    "#;
+    let scene = Scene::from_toml(text, Path::new("panel.toml")).unwrap();
+    let photons = trace(&scene, accel(&scene).as_ref(), Pass::Global { keep_direct: true }, 100_000, 1, 5);
+    // The panel's shadow on the ceiling reaches |x|, |z| = 0.25 * 1.0 / 0.9.
+    let behind = photons.iter().filter(|p| p.position.x.abs() < 0.27 && p.position.z.abs() < 0.27).count();
+    let around = photons.iter().filter(|p| p.position.x.abs() < 0.6 && p.position.z.abs() < 0.6).count();
+    assert_eq!(behind, 0, "photons behind the panel");
+    assert!(around > 1000, "photons must land around its shadow: {around}");
+}

@@ -22,6 +22,17 @@ pub struct Photon {
     pub normal: Vec3,
 }
 
+impl Photon {
+    /// Whether this photon counts as light arriving at a surface with unit
+    /// normal `n` (on the viewer's side) near it: it came from above, and
+    /// landed on a surface facing the same way. Near a corner a search
+    /// sphere also reaches the other wall, whose photons are not light
+    /// arriving here.
+    pub fn lights_surface(&self, n: Vec3) -> bool {
+        self.incoming.dot(n) > 0.0 && self.normal.dot(n) >= 0.9
+    }
+}
+
 /// How a radiance estimate gathers photons.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Estimate {
@@ -160,10 +171,7 @@ impl PhotonMap {
         let mut sum = Vec3::ZERO;
         for &(d2, i) in &found {
             let photon = &self.photons[i];
-            // Only photons that arrived from above, on a surface facing the
-            // same way: near a corner the search sphere also reaches the
-            // other wall, whose photons are not light arriving here.
-            if photon.incoming.dot(n) <= 0.0 || photon.normal.dot(n) < 0.9 {
+            if !photon.lights_surface(n) {
                 continue;
             }
             let weight = match estimate.cone_filter {

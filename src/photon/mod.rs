@@ -22,6 +22,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::accel::{Intersector, Ray};
+use crate::light::nearest_emitter;
 use crate::render::surface::SurfacePoint;
 use crate::sampling::{around, cosine_hemisphere, phong_lobe, Rng};
 use crate::scene::Scene;
@@ -44,6 +45,8 @@ pub struct PhotonSettings {
     pub max_bounces: u32,
     /// Seed of the photons' random streams.
     pub seed: u64,
+    /// Progressive photon mapping (for [`crate::render::Integrator::Sppm`]).
+    pub sppm: crate::render::sppm::SppmSettings,
 }
 
 /// What was built, skipped and how long it took.
@@ -210,6 +213,17 @@ impl Cones {
     }
 }
 
+/// A photon arriving at a diffuse or glossy surface, with how it got there.
+#[derive(Debug, Clone, Copy)]
+pub struct Arrival {
+    /// Where it landed and what it carries.
+    pub photon: Photon,
+    /// Diffuse or glossy bounces before this surface.
+    pub diffuse_bounces: u32,
+    /// Mirror or glass bounces before this surface.
+    pub specular_bounces: u32,
+}
+
 /// Emits `count` photons in total from all lights (shared in proportion to
 /// their power), traces them, and returns the photons `pass` keeps.
 ///
@@ -226,6 +240,54 @@ pub fn trace(
     max_bounces: u32,
     seed: u64,
 ) -> Vec<Photon> {
+    let stream_seed = seed ^ if pass == Pass::Caustic { 0xC0FFEE } else { 0x61_0BA1 };
+    let chunks = emit(
+        scene,
+        accel,
+        count,
+        max_bounces,
+        stream_seed,
+        pass == Pass::Caustic,
+        Vec::new,
+        |stored: &mut Vec<Photon>, arrival: &Arrival| {
+            let keep = match pass {
+                Pass::Caustic => arrival.specular_bounces > 0,
+                Pass::Global { keep_direct } => keep_direct || arrival.diffuse_bounces > 0,
+            };
+            if keep {
+                stored.push(arrival.photon);
+            }
+            // Caustic paths end at their first diffuse surface.
+            pass != Pass::Caustic
+        },
+    );
+    chunks.into_iter().flatten().collect()
+}
+
+/// Photons traced per work item: the unit of parallelism, and of order.
+const CHUNK: u64 = 4096;
+
+/// Emits `count` photons from all lights in proportion to their power, each
+/// carrying its light's power over the photons that light emits, and traces
+/// them. `arrive` sees each photon at every diffuse or glossy surface it
+/// reaches and says whether the photon goes on. Photon `i` draws from the
+/// random stream `(stream_seed, i)`; the photons are split into chunks of
+/// consecutive indices, each with its own state from `start`, returned in
+/// index order, so the result never depends on the thread count.
+///
+/// With `aim_at_specular`, point and spot lights emit only towards mirror
+/// and glass meshes (see [`trace`]).
+#[allow(clippy::too_many_arguments)]
+pub fn emit<T: Send>(
+    scene: &Scene,
+    accel: &dyn Intersector,
+    count: u32,
+    max_bounces: u32,
+    stream_seed: u64,
+    aim_at_specular: bool,
+    start: impl Fn() -> T + Sync,
+    arrive: impl Fn(&mut T, &Arrival) -> bool + Sync,
+) -> Vec<T> {
     // Photons per light, in proportion to power; each carries power / its count.
     let weights: Vec<f32> = scene.lights.iter().map(|l| l.power().element_sum()).collect();
     let total: f32 = weights.iter().sum();
@@ -242,8 +304,7 @@ pub fn trace(
     let starts: Vec<u64> =
         per_light.iter().scan(0, |acc, n| Some(std::mem::replace(acc, *acc + n))).collect();
     let emitted: u64 = per_light.iter().sum();
-    let stream_seed = seed ^ if pass == Pass::Caustic { 0xC0FFEE } else { 0x61_0BA1 };
-    let spheres = if pass == Pass::Caustic { specular_spheres(scene) } else { Vec::new() };
+    let spheres = if aim_at_specular { specular_spheres(scene) } else { Vec::new() };
     let aims: Vec<Option<Cones>> = scene
         .lights
         .iter()
@@ -257,11 +318,10 @@ pub fn trace(
         })
         .collect();
 
-    const CHUNK: u64 = 4096;
     (0..emitted.div_ceil(CHUNK))
         .into_par_iter()
-        .flat_map_iter(|chunk| {
-            let mut stored = Vec::new();
+        .map(|chunk| {
+            let mut state = start();
             for index in chunk * CHUNK..((chunk + 1) * CHUNK).min(emitted) {
                 let light = starts.partition_point(|&s| s <= index) - 1;
                 let mut rng = Rng::new(stream_seed, index);
@@ -276,42 +336,39 @@ pub fn trace(
                     None => scene.lights[light].emit(rng.uniform2(), rng.uniform2()),
                 };
                 let power = power / per_light[light] as f32;
-                trace_photon(scene, accel, pass, ray, power, max_bounces, &mut rng, &mut stored);
+                trace_photon(scene, accel, ray, power, max_bounces, &mut rng, &mut |a| arrive(&mut state, a));
             }
-            stored
+            state
         })
         .collect()
 }
 
-/// Follows one photon, storing it by the rules of `pass`.
-#[allow(clippy::too_many_arguments)]
+/// Follows one photon, showing it to `arrive` at every diffuse or glossy
+/// surface until `arrive` says stop, the photon is absorbed, or it has made
+/// `max_bounces` bounces.
 fn trace_photon(
     scene: &Scene,
     accel: &dyn Intersector,
-    pass: Pass,
     mut ray: Ray,
     mut power: Vec3,
     max_bounces: u32,
     rng: &mut Rng,
-    stored: &mut Vec<Photon>,
+    arrive: &mut dyn FnMut(&Arrival) -> bool,
 ) {
     let (mut diffuse_bounces, mut specular_bounces) = (0u32, 0u32);
     for _ in 0..max_bounces {
         let Some(hit) = accel.intersect(&ray) else { return };
+        if nearest_emitter(&scene.lights, &Ray { t_max: hit.t, ..ray }).is_some() {
+            return; // absorbed by the front of an area light, as camera paths see it
+        }
         let sp = SurfacePoint::new(scene, &ray, &hit);
         let m = &scene.materials[sp.material];
         let dir = ray.dir.normalize();
 
         if m.is_glossy_or_diffuse() {
-            let keep = match pass {
-                Pass::Caustic => specular_bounces > 0,
-                Pass::Global { keep_direct } => keep_direct || diffuse_bounces > 0,
-            };
-            if keep {
-                stored.push(Photon { position: sp.p, incoming: -dir, power, normal: sp.ns });
-            }
-            if pass == Pass::Caustic {
-                return; // caustic paths end at their first diffuse surface
+            let photon = Photon { position: sp.p, incoming: -dir, power, normal: sp.ns };
+            if !arrive(&Arrival { photon, diffuse_bounces, specular_bounces }) {
+                return;
             }
         }
 

@@ -8,6 +8,7 @@
 pub mod camera;
 pub mod image;
 pub mod path;
+pub mod sppm;
 pub mod surface;
 pub mod whitted;
 
@@ -33,6 +34,9 @@ pub enum Integrator {
     /// map and indirect light from the global map (by final gathering, or
     /// shown directly when there are no gather rays).
     Photon,
+    /// Stochastic progressive photon mapping: passes of camera paths and
+    /// photons with a shrinking radius, converging to the exact image.
+    Sppm,
     /// Whitted ray tracing: direct light, mirrors, refraction with Fresnel.
     Whitted,
     /// The unbiased reference: path tracing with next-event estimation and
@@ -227,6 +231,9 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Rendered {
     let start = Instant::now();
+    if settings.integrator == Integrator::Sppm {
+        return render_progressive(scene, accel, settings, progress);
+    }
     let (width, height) = (settings.width, settings.height);
     let maps =
         (settings.integrator == Integrator::Photon).then(|| build_maps(scene, accel, &settings.photons));
@@ -277,6 +284,43 @@ pub fn render(
         photons: maps.map(|m| m.stats),
     };
     Rendered { width, height, pixels, stats }
+}
+
+/// How many units of work [`render`] reports through `progress` in all:
+/// pixels, times passes for progressive photon mapping.
+pub fn work_units(settings: &RenderSettings) -> u64 {
+    let pixels = settings.width as u64 * settings.height as u64;
+    match settings.integrator {
+        Integrator::Sppm => pixels * settings.photons.sppm.passes as u64,
+        _ => pixels,
+    }
+}
+
+/// [`render`] for [`Integrator::Sppm`]: all passes, then the image.
+fn render_progressive(
+    scene: &Scene,
+    accel: &dyn Intersector,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Rendered {
+    let start = Instant::now();
+    let mut run = sppm::Progressive::new(scene, accel, settings);
+    for _ in 0..settings.photons.sppm.passes {
+        run.run_pass();
+        progress(settings.width as u64 * settings.height as u64);
+    }
+    let emitted = run.passes() as u64 * settings.photons.sppm.photons_per_pass as u64;
+    let stats = RenderStats {
+        elapsed: start.elapsed(),
+        rays: run.rays().closest,
+        shadow_rays: run.rays().shadow,
+        photons: Some(PhotonStats {
+            global_emitted: emitted,
+            trace_seconds: run.photon_seconds,
+            ..PhotonStats::default()
+        }),
+    };
+    Rendered { width: settings.width, height: settings.height, pixels: run.components(), stats }
 }
 
 /// One centred ray per pixel, showing geometry (in the `direct` component).

@@ -4,6 +4,7 @@
 use glam::Vec3;
 
 use crate::accel::{Hit, Ray};
+use crate::material::Material;
 use crate::optics;
 use crate::sampling::Rng;
 use crate::scene::Scene;
@@ -104,6 +105,21 @@ impl SurfacePoint {
             Some(t) if rng.uniform() >= kr => t,
             _ => self.reflect(dir),
         }
+    }
+
+    /// One of `m`'s mirror and glass parts for `dir`, chosen in proportion to
+    /// its weight summed over channels: the part's weight over the chance of
+    /// choosing it, and the direction out. `None` if `m` has neither part.
+    pub fn specular_bounce(&self, m: &Material, dir: Vec3, rng: &mut Rng) -> Option<(Vec3, Vec3)> {
+        let (mirror, glass) = (m.mirror.element_sum(), m.transmittance.element_sum());
+        if mirror + glass <= 0.0 {
+            return None;
+        }
+        Some(if rng.uniform() * (mirror + glass) < mirror {
+            (m.mirror * ((mirror + glass) / mirror), self.reflect(dir))
+        } else {
+            (m.transmittance * ((mirror + glass) / glass), self.dielectric_direction(dir, m.ior, rng))
+        })
     }
 
     /// A shadow ray from the surface to `target`, stopping just short of it

@@ -153,28 +153,31 @@ impl Whitted<'_> {
     ) -> Vec3 {
         count.closest += 1;
         let Some(hit) = self.accel.intersect(ray) else { return Vec3::ZERO };
+        if nearest_emitter(&self.scene.lights, &Ray { t_max: hit.t, ..*ray }).is_some() {
+            return Vec3::ZERO; // the light's front is black, its light the shadow rays' part
+        }
         let sp = SurfacePoint::new(self.scene, ray, &hit);
         let m = &self.scene.materials[sp.material];
         let dir = ray.dir.normalize();
         if m.is_glossy_or_diffuse() {
             return global.precomputed_radiance(sp.p, sp.ns, m, &self.settings.photons.global_estimate);
         }
-        let (mirror, glass) = (m.mirror.element_sum(), m.transmittance.element_sum());
-        if bounces >= 8 || mirror + glass <= 0.0 {
+        if bounces >= 8 {
             return Vec3::ZERO;
         }
-        // One specular branch, chosen in proportion to its weight.
-        let (weight, next) = if rng.uniform() * (mirror + glass) < mirror {
-            (m.mirror * ((mirror + glass) / mirror), sp.reflect(dir))
-        } else {
-            (m.transmittance * ((mirror + glass) / glass), sp.dielectric_direction(dir, m.ior, rng))
-        };
+        let Some((weight, next)) = sp.specular_bounce(m, dir, rng) else { return Vec3::ZERO };
         weight * self.gather_radiance(&sp.spawn(next), global, bounces + 1, rng, count)
     }
 
     /// Light arriving straight from the lights and reflected towards `wo` by
     /// the diffuse and glossy parts of the material.
-    fn direct_light(&self, sp: &SurfacePoint, wo: Vec3, rng: &mut Rng, count: &mut RayCount) -> Vec3 {
+    pub(crate) fn direct_light(
+        &self,
+        sp: &SurfacePoint,
+        wo: Vec3,
+        rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> Vec3 {
         let m = &self.scene.materials[sp.material];
         let mut sum = Vec3::ZERO;
         for light in &self.scene.lights {

@@ -187,6 +187,18 @@ pub struct PhotonSection {
     /// Most bounces per photon.
     #[serde(default = "default_photon_bounces", deserialize_with = "max_depth")]
     pub max_bounces: u32,
+    /// Progressive photon mapping: passes.
+    #[serde(default = "default_passes", deserialize_with = "passes")]
+    pub passes: u32,
+    /// Progressive photon mapping: photons emitted per pass.
+    #[serde(default = "default_pass_photons", deserialize_with = "pass_photons")]
+    pub pass_photons: u32,
+    /// Progressive photon mapping: starting radius (default: 1/100 of the scene's diagonal).
+    #[serde(default)]
+    pub sppm_radius: Option<Positive>,
+    /// Progressive photon mapping: fraction of new photons kept per pass, in (0, 1).
+    #[serde(default = "default_sppm_alpha")]
+    pub sppm_alpha: Spanned<Finite>,
 }
 
 impl Default for PhotonSection {
@@ -201,6 +213,10 @@ impl Default for PhotonSection {
             cone_filter: default_cone_filter(),
             gather_rays: default_gather_rays(),
             max_bounces: default_photon_bounces(),
+            passes: default_passes(),
+            pass_photons: default_pass_photons(),
+            sppm_radius: None,
+            sppm_alpha: default_sppm_alpha(),
         }
     }
 }
@@ -231,6 +247,29 @@ fn default_gather_rays() -> u32 {
 
 fn default_photon_bounces() -> u32 {
     16
+}
+
+/// Most passes progressive photon mapping may be asked for.
+pub const MAX_PASSES: u32 = 1_000_000;
+
+fn default_passes() -> u32 {
+    64
+}
+
+fn default_pass_photons() -> u32 {
+    100_000
+}
+
+fn default_sppm_alpha() -> Spanned<Finite> {
+    Spanned::new(0..0, Finite(0.7))
+}
+
+fn passes<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 1, MAX_PASSES)
+}
+
+fn pass_photons<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    whole_number(d, 1, MAX_PHOTONS)
 }
 
 fn photon_count<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {

@@ -6,7 +6,8 @@ mod file;
 /// Bounds on the numbers a scene file (or the command line) may set.
 pub mod limits {
     pub use super::file::{
-        MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PHOTONS, MAX_SAMPLES, MAX_SPHERE_SUBDIVISIONS, MAX_TEAPOT_LEVEL,
+        MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PASSES, MAX_PHOTONS, MAX_SAMPLES, MAX_SPHERE_SUBDIVISIONS,
+        MAX_TEAPOT_LEVEL,
     };
 }
 pub mod mesh;
@@ -341,6 +342,13 @@ impl Builder<'_> {
                 ))
             }
         };
+        let alpha = p.sppm_alpha.get_ref().0;
+        if !(alpha > 0.0 && alpha < 1.0) {
+            return Err(self.error_at(
+                p.sppm_alpha.span(),
+                format!("sppm_alpha must lie between 0 and 1 (exclusive), found {alpha}"),
+            ));
+        }
         Ok(PhotonSettings {
             global_photons: p.global,
             caustic_photons: p.caustic,
@@ -357,6 +365,12 @@ impl Builder<'_> {
             gather_rays: p.gather_rays,
             max_bounces: p.max_bounces,
             seed: 0,
+            sppm: crate::render::sppm::SppmSettings {
+                passes: p.passes,
+                photons_per_pass: p.pass_photons,
+                initial_radius: p.sppm_radius.map_or(diagonal / 100.0, |r| r.0),
+                alpha,
+            },
         })
     }
 

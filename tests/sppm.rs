@@ -1,0 +1,103 @@
+//! Progressive photon mapping against an exact answer: indirect light inside
+//! a closed sphere converges, pass by pass, with no bias left over; and the
+//! image does not depend on the thread count.
+
+use std::f32::consts::PI;
+use std::path::Path;
+
+use caustix::accel::Backend;
+use caustix::render::{render, Integrator, RenderSettings, Rendered};
+use caustix::scene::Scene;
+
+/// A closed grey sphere (radius 2, seen from inside) with a 100 W point
+/// light at its centre: the indirect irradiance is the same everywhere,
+/// `power * a / ((1 - a) area)`.
+fn furnace(albedo: f32) -> Scene {
+    let text = format!(
+        r#"
+        [camera]
+        eye = [0, 0, 1]
+        look_at = [0, 0, 0]
+        fov = 60
+        [image]
+        width = 16
+        height = 16
+        [materials.grey]
+        diffuse = {albedo}
+        [photons]
+        pass_photons = 20000
+        sppm_radius = 0.4
+        [[point_light]]
+        position = [0, 0, 0]
+        power = 100
+        [[sphere]]
+        center = [0, 0, 0]
+        radius = 2
+        subdivisions = 5
+        material = "grey"
+    "#
+    );
+    Scene::from_toml(&text, Path::new("furnace.toml")).unwrap()
+}
+
+fn sppm(scene: &Scene, passes: u32) -> Rendered {
+    let mut settings = RenderSettings { integrator: Integrator::Sppm, ..RenderSettings::from_scene(scene) };
+    settings.photons.sppm.passes = passes;
+    let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
+    render(scene, accel.as_ref(), &settings, &|_| {})
+}
+
+fn mesh_area(scene: &Scene) -> f32 {
+    let m = &scene.meshes[0];
+    m.indices
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
+
+/// Measured: mean per-pixel error of the indirect light 3.66%, 1.92%, 1.30%
+/// and image mean -0.99%, -0.37%, -0.07% off exact at 4, 16, 64 passes.
+#[test]
+fn indirect_light_converges_to_the_exact_answer() {
+    let albedo = 0.5;
+    let scene = furnace(albedo);
+    let exact = albedo / PI * 100.0 * albedo / ((1.0 - albedo) * mesh_area(&scene));
+    let (mut errors, mut means) = (Vec::new(), Vec::new());
+    for passes in [4, 16, 64] {
+        let global = sppm(&scene, passes).image("global").unwrap();
+        let n = global.pixels.len() as f32;
+        let mean = global.pixels.iter().map(|p| p.x).sum::<f32>() / n;
+        let error = global.pixels.iter().map(|p| (p.x / exact - 1.0).abs()).sum::<f32>() / n;
+        eprintln!(
+            "{passes} passes: mean {mean:.5} vs exact {exact:.5} ({:+.2}%), per-pixel error {:.2}%",
+            100.0 * (mean / exact - 1.0),
+            100.0 * error
+        );
+        assert!((mean / exact - 1.0).abs() < 0.03, "{passes} passes: mean {mean} vs {exact}");
+        errors.push(error);
+        means.push(mean);
+    }
+    assert!(errors[0] > errors[1] && errors[1] > errors[2], "error must keep falling: {errors:?}");
+    // With alpha = 0.7 the error falls about as passes^(-alpha / 2) (Knaus
+    // and Zwicker 2011): 16x the passes, 0.38x the error (measured 0.36x). A
+    // plateau from bias would stop it; ask for at least half.
+    assert!(errors[2] < errors[0] * 0.5, "{errors:?}");
+    // Meanwhile the bias of the mean has gone.
+    assert!((means[2] / exact - 1.0).abs() < 0.01, "64 passes: mean {} vs {exact}", means[2]);
+}
+
+#[test]
+fn the_image_does_not_depend_on_the_thread_count() {
+    let scene = furnace(0.5);
+    let with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| sppm(&scene, 3)).pixels
+    };
+    let one = with(1);
+    assert!(one.iter().any(|c| c.global.x > 0.0), "photons must reach the pixels");
+    assert_eq!(one, with(2));
+    assert_eq!(one, with(3));
+}
