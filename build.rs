@@ -1,14 +1,24 @@
-//! Generates Rust bindings for Debian's Embree 3 with bindgen and links `libembree3`.
+//! Links Embree: by default Embree 3 (Debian 12's `libembree-dev`), with
+//! bindings generated here by bindgen; with the `embree4` feature Embree 4
+//! (Debian 13's and Ubuntu 24.04's `libembree-dev`), with the bindings of the
+//! `embree4-sys` crate.
 //!
-//! Search order for Embree: `$EMBREE_DIR/{include,lib}` if set, then the system
-//! include and library paths. Anything missing stops the build with one sentence
-//! naming the package to install, instead of a page of clang errors.
+//! Search order for the library: `$EMBREE_DIR/{include,lib}` if set (then the
+//! binaries also get `$EMBREE_DIR/lib` as their run-time search path), else
+//! the system include and library paths. Anything missing stops the build
+//! with one sentence saying what to install, instead of a page of linker or
+//! clang errors.
 
 use std::env;
 use std::path::{Path, PathBuf};
 
 const INSTALL_HINT: &str = "install it with `sudo apt-get install libembree-dev libclang-dev` \
 (or `./dev.sh deps`), or point EMBREE_DIR at an Embree 3 installation";
+
+const INSTALL_HINT_4: &str =
+    "on Debian 13 or Ubuntu 24.04 `sudo apt-get install libembree-dev` installs it; \
+to test on a system without it, `scripts/embree4-from-wheel.sh` unpacks Embree 4 from PyPI into \
+target/embree4 (then set EMBREE_DIR=target/embree4)";
 
 /// Stops the build with one sentence, shown by cargo as an error (no backtrace).
 fn fail(message: &str) -> ! {
@@ -31,26 +41,74 @@ fn find_dir(dirs: &[PathBuf], relative: &str) -> Option<PathBuf> {
     dirs.iter().find(|d| d.join(relative).exists()).cloned()
 }
 
-fn main() {
-    println!("cargo:rerun-if-changed=vendor-headers/embree3_wrapper.h");
-    println!("cargo:rerun-if-env-changed=EMBREE_DIR");
-
-    let (include_dirs, lib_dirs) = match env::var_os("EMBREE_DIR") {
+/// Where to look for headers and libraries.
+fn search_dirs() -> (Vec<PathBuf>, Vec<PathBuf>) {
+    match env::var_os("EMBREE_DIR") {
         Some(root) => {
             let root = PathBuf::from(root);
             (vec![root.join("include")], vec![root.join("lib"), root.join("lib64")])
         }
         None => (system_include_dirs(), system_lib_dirs()),
-    };
+    }
+}
 
+/// Links `lib_dir/lib{name}.so`; outside the system folders, binaries also
+/// look there at run time.
+fn link(lib_dir: &Path, name: &str) {
+    println!("cargo:rustc-link-search=native={}", lib_dir.display());
+    println!("cargo:rustc-link-lib=dylib={name}");
+    if env::var_os("EMBREE_DIR").is_some() {
+        let absolute = lib_dir.canonicalize().unwrap_or_else(|_| lib_dir.to_path_buf());
+        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", absolute.display());
+    }
+}
+
+/// The `embree4` feature: the bindings come from `embree4-sys`; find and link the library.
+fn embree4() {
+    let (_, lib_dirs) = search_dirs();
+    let Some(lib_dir) = find_dir(&lib_dirs, "libembree4.so") else {
+        let other = find_dir(&lib_dirs, "libembree3.so").map_or(String::new(), |d| {
+            format!(
+                " This system has Embree 3 ({}): build without `--features embree4` to use it.",
+                d.join("libembree3.so").display()
+            )
+        });
+        fail(&format!(
+            "the embree4 feature needs Embree 4's library (libembree4.so was not found in {lib_dirs:?}); \
+             {INSTALL_HINT_4}.{other}"
+        ));
+    };
+    link(&lib_dir, "embree4");
+}
+
+fn main() {
+    println!("cargo:rerun-if-changed=vendor-headers/embree3_wrapper.h");
+    println!("cargo:rerun-if-env-changed=EMBREE_DIR");
+    if env::var_os("CARGO_FEATURE_EMBREE4").is_some() {
+        return embree4();
+    }
+
+    let (include_dirs, lib_dirs) = search_dirs();
+    // Only Embree 4 installed (Debian 13, Ubuntu 24.04): say which switch to use.
+    let only_4 = |what: &str| {
+        find_dir(&lib_dirs, "libembree4.so").map_or(String::new(), |d| {
+            format!(
+                " This system has Embree 4 ({}) but not {what}: build with `--features embree4`.",
+                d.join("libembree4.so").display()
+            )
+        })
+    };
     let Some(include_dir) = find_dir(&include_dirs, "embree3/rtcore.h") else {
         fail(&format!(
-            "caustix needs Embree 3's headers (embree3/rtcore.h was not found in {include_dirs:?}); {INSTALL_HINT}"
+            "caustix needs Embree 3's headers (embree3/rtcore.h was not found in {include_dirs:?}); \
+             {INSTALL_HINT}.{}",
+            only_4("Embree 3's headers")
         ));
     };
     let Some(lib_dir) = find_dir(&lib_dirs, "libembree3.so") else {
         fail(&format!(
-            "caustix needs Embree 3's library (libembree3.so was not found in {lib_dirs:?}); {INSTALL_HINT}"
+            "caustix needs Embree 3's library (libembree3.so was not found in {lib_dirs:?}); {INSTALL_HINT}.{}",
+            only_4("Embree 3's library")
         ));
     };
     // bindgen loads libclang at run time and panics with a long message when it is absent.
@@ -60,8 +118,7 @@ fn main() {
         ));
     }
 
-    println!("cargo:rustc-link-search=native={}", lib_dir.display());
-    println!("cargo:rustc-link-lib=dylib=embree3");
+    link(&lib_dir, "embree3");
 
     let bindings = bindgen::Builder::default()
         .header("vendor-headers/embree3_wrapper.h")

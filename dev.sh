@@ -4,19 +4,19 @@
 #   ./dev.sh test     install what is missing, then rustfmt, clippy and the whole test suite
 #   ./dev.sh deps     only install the system packages
 # System packages come from apt (with sudo when not root); Rust itself comes from rustup.
+# With Embree 3 installed (Debian 12) `test` runs the suite twice: on it, and on
+# Embree 4 unpacked from PyPI (scripts/embree4-from-wheel.sh), the testing route
+# for the `embree4` feature. With Embree 4 installed (Debian 13, Ubuntu 24.04)
+# everything builds with `--features embree4` against it.
 set -euo pipefail
 cd "$(dirname "$0")"
 
-install_deps() {
+# Installs the missing apt packages among "$@".
+apt_install() {
     local missing=()
-    if ! command -v dpkg >/dev/null 2>&1; then
-        echo "dev.sh: not a Debian/Ubuntu system; install Embree 3 (headers and library) and libclang yourself" >&2
-    else
-        for pkg in libembree-dev libclang-dev; do
-            dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
-        done
-        command -v cc >/dev/null 2>&1 || missing+=(gcc libc6-dev)
-    fi
+    for pkg in "$@"; do
+        dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
+    done
     if ((${#missing[@]})); then
         local sudo=""
         [ "$(id -u)" -eq 0 ] || sudo="sudo"
@@ -24,10 +24,32 @@ install_deps() {
         $sudo apt-get update -qq
         DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
     fi
+}
+
+install_deps() {
+    if ! command -v dpkg >/dev/null 2>&1; then
+        echo "dev.sh: not a Debian/Ubuntu system; install Embree (headers and library) and libclang yourself" >&2
+    else
+        apt_install libembree-dev libclang-dev
+        command -v cc >/dev/null 2>&1 || apt_install gcc libc6-dev
+    fi
     if ! command -v cargo >/dev/null 2>&1; then
         echo "dev.sh: caustix needs a recent stable Rust toolchain (tested with 1.95); install it with rustup, then run this again" >&2
         exit 1
     fi
+}
+
+# The cargo flags for the system's Embree: none for Embree 3, the feature for Embree 4.
+system_embree_flags() {
+    if [ ! -e /usr/include/embree3/rtcore.h ] && [ -e /usr/include/embree4/rtcore.h ]; then
+        echo "--features embree4"
+    fi
+}
+
+# fmt, then clippy and the tests with the cargo flags given.
+check() {
+    cargo clippy --release --all-targets "$@" -- -D warnings
+    cargo test --release "$@"
 }
 
 case "${1:-}" in
@@ -36,17 +58,31 @@ case "${1:-}" in
         ;;
     render)
         install_deps
-        cargo build --release
+        # shellcheck disable=SC2046
+        cargo build --release $(system_embree_flags)
         ./target/release/caustix render scenes/teapot.toml -o teapot.png
         ;;
     test)
         install_deps
         cargo fmt --check
-        cargo clippy --release --all-targets -- -D warnings
-        cargo test --release
+        flags=$(system_embree_flags)
+        if [ -n "$flags" ]; then
+            echo "dev.sh: testing with the system's Embree 4" >&2
+            # shellcheck disable=SC2086
+            check $flags
+        else
+            echo "dev.sh: testing with the system's Embree 3" >&2
+            check
+            echo "dev.sh: testing with Embree 4 from PyPI (the embree4 feature)" >&2
+            python3 -m pip --version >/dev/null 2>&1 || apt_install python3-pip
+            scripts/embree4-from-wheel.sh
+            EMBREE_DIR=target/embree4 check --features embree4
+            # Leave target/release/caustix built for the system's Embree, as `render` expects.
+            cargo build --release
+        fi
         ;;
     *)
-        sed -n '2,6p' "$0" | sed 's/^# \{0,1\}//'
+        sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'
         exit 2
         ;;
 esac

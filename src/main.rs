@@ -174,6 +174,9 @@ struct RenderArgs {
     /// Worker threads (default: all cores). The image is the same for any count.
     #[arg(long)]
     threads: Option<usize>,
+    /// Seed of every random stream: another seed, an independent image (default 0).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
 }
 
 fn main() -> ExitCode {
@@ -220,6 +223,8 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
     if let Some(integrator) = args.integrator {
         settings.integrator = integrator;
     }
+    settings.seed = args.seed;
+    settings.photons.seed = args.seed;
     settings.width = in_range("--width", args.width.unwrap_or(settings.width), 1, limits::MAX_IMAGE_SIDE)?;
     settings.height =
         in_range("--height", args.height.unwrap_or(settings.height), 1, limits::MAX_IMAGE_SIDE)?;
@@ -365,8 +370,12 @@ fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
         "--plot {}: the plot is written as SVG; give a file name ending in .svg",
         args.plot.display()
     );
-    let mut integrators = args.integrators.clone();
-    integrators.dedup();
+    let mut integrators: Vec<Integrator> = Vec::new();
+    for i in &args.integrators {
+        if !integrators.contains(i) {
+            integrators.push(*i);
+        }
+    }
     if let Some(bad) =
         integrators.iter().find(|i| !matches!(i, Integrator::Path | Integrator::Photon | Integrator::Sppm))
     {

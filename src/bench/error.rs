@@ -190,6 +190,8 @@ pub fn plot(points: &[ErrorPoint], title: &str, path: &Path) -> crate::Result<()
         .configure_mesh()
         .x_desc("seconds (wall clock)")
         .y_desc("RMSE against the reference")
+        .x_label_formatter(&|v| short(*v))
+        .y_label_formatter(&|v| short(*v))
         .draw()
         .map_err(|e| failed(&e))?;
     let colours =
@@ -225,4 +227,33 @@ pub fn plot(points: &[ErrorPoint], title: &str, path: &Path) -> crate::Result<()
         .map_err(|e| failed(&e))?;
     root.present().map_err(|e| failed(&e))?;
     Ok(())
+}
+
+/// A tick label with at most three significant digits: `0.6`, `0.05`, `12.5`.
+fn short(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let decimals = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let text = format!("{v:.decimals$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(short(0.6000000000000001), "0.6");
+        assert_eq!(short(0.05), "0.05");
+        assert_eq!(short(0.123456), "0.123");
+        assert_eq!(short(12.5), "12.5");
+        assert_eq!(short(1000.0), "1000");
+        assert_eq!(short(2.0), "2");
+    }
 }

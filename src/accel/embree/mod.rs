@@ -1,4 +1,7 @@
-//! Embree 3 behind a safe interface: the only module with `unsafe` code.
+//! Embree behind a safe interface: the only module with `unsafe` code. One
+//! build uses one major version, Embree 3 or (feature `embree4`) Embree 4;
+//! `ffi` hides their differences, and nothing outside this module knows
+//! which is in use ([`Device::version`] and the intersector's name say it).
 //!
 //! Ownership follows Embree's reference counting: [`Device`] owns one
 //! `RTCDevice` and [`EmbreeIntersector`] owns one committed `RTCScene` plus the
@@ -253,15 +256,7 @@ impl Drop for EmbreeIntersector {
 
 /// Embree's ray-and-hit record for `ray`, with the hit marked empty.
 fn new_rayhit(ray: &Ray) -> ffi::RTCRayHit {
-    ffi::RTCRayHit {
-        ray: EmbreeIntersector::ray(ray),
-        hit: ffi::RTCHit {
-            geomID: ffi::RTC_INVALID_GEOMETRY_ID,
-            primID: ffi::RTC_INVALID_GEOMETRY_ID,
-            instID: [ffi::RTC_INVALID_GEOMETRY_ID; ffi::RTC_MAX_INSTANCE_LEVEL_COUNT as usize],
-            ..Default::default()
-        },
-    }
+    ffi::RTCRayHit { ray: EmbreeIntersector::ray(ray), hit: ffi::empty_hit() }
 }
 
 /// Our hit from Embree's record, if it hit anything.
@@ -309,11 +304,10 @@ impl EmbreeIntersector {
         let scene = SceneHandle(self.scene);
         rays.0.par_chunks_mut(1024).for_each(|chunk| {
             let scene = &scene;
-            let mut context = ffi::new_intersect_context();
             for record in chunk {
                 // SAFETY: the scene is committed and outlives this call; each
                 // record is a valid, 16-byte aligned `RTCRayHit`.
-                unsafe { ffi::rtcIntersect1(scene.0, &mut context, record) };
+                unsafe { ffi::intersect1(scene.0, record) };
             }
         });
     }
@@ -328,63 +322,41 @@ unsafe impl Sync for SceneHandle {}
 
 impl Intersector for EmbreeIntersector {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mut context = ffi::new_intersect_context();
         let mut rayhit = new_rayhit(ray);
-        // SAFETY: the scene is committed; `context` and `rayhit` are valid,
-        // and `RTCRayHit` is 16-byte aligned by its bindgen `repr(align(16))`.
-        unsafe { ffi::rtcIntersect1(self.scene, &mut context, &mut rayhit) };
+        // SAFETY: the scene is committed; `rayhit` is a valid record, 16-byte
+        // aligned by its `repr(align(16))`.
+        unsafe { ffi::intersect1(self.scene, &mut rayhit) };
         hit_of(&rayhit)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        let mut context = ffi::new_intersect_context();
         let mut r = Self::ray(ray);
         // SAFETY: as in `intersect`; `RTCRay` is 16-byte aligned.
-        unsafe { ffi::rtcOccluded1(self.scene, &mut context, &mut r) };
+        unsafe { ffi::occluded1(self.scene, &mut r) };
         // Embree marks an occluded ray by setting tfar to -infinity.
         r.tfar == f32::NEG_INFINITY
     }
 
-    /// One call into Embree's ray-stream API (`rtcIntersect1M`) per batch.
+    /// The whole batch in one call into Embree's ray-stream API
+    /// (`rtcIntersect1M`) with Embree 3; ray by ray with Embree 4, which has
+    /// no streams.
     fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
         let mut records: Vec<ffi::RTCRayHit> = rays.iter().map(new_rayhit).collect();
-        let mut context = ffi::new_intersect_context();
-        for chunk in records.chunks_mut(u32::MAX as usize) {
-            // SAFETY: `chunk` is a live, 16-byte aligned array (Vec honours the
-            // type's alignment) of `chunk.len()` records with the given stride.
-            unsafe {
-                ffi::rtcIntersect1M(
-                    self.scene,
-                    &mut context,
-                    chunk.as_mut_ptr(),
-                    chunk.len() as u32,
-                    std::mem::size_of::<ffi::RTCRayHit>(),
-                )
-            };
-        }
+        // SAFETY: the scene is committed; `records` is a live array of valid
+        // records, 16-byte aligned (Vec honours the type's alignment).
+        unsafe { ffi::intersect_many(self.scene, &mut records) };
         for (record, hit) in records.iter().zip(hits) {
             *hit = hit_of(record);
         }
     }
 
-    /// One call into Embree's ray-stream API (`rtcOccluded1M`) per batch.
+    /// As [`Intersector::intersect_batch`], for shadow rays (`rtcOccluded1M`).
     fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one result slot per ray");
         let mut records: Vec<ffi::RTCRay> = rays.iter().map(Self::ray).collect();
-        let mut context = ffi::new_intersect_context();
-        for chunk in records.chunks_mut(u32::MAX as usize) {
-            // SAFETY: as in `intersect_batch`, for an array of `RTCRay`.
-            unsafe {
-                ffi::rtcOccluded1M(
-                    self.scene,
-                    &mut context,
-                    chunk.as_mut_ptr(),
-                    chunk.len() as u32,
-                    std::mem::size_of::<ffi::RTCRay>(),
-                )
-            };
-        }
+        // SAFETY: as in `intersect_batch`, for an array of `RTCRay`.
+        unsafe { ffi::occluded_many(self.scene, &mut records) };
         for (record, o) in records.iter().zip(occluded) {
             *o = record.tfar == f32::NEG_INFINITY;
         }
@@ -451,20 +423,32 @@ mod tests {
     fn embree_errors_come_back_through_the_callback() {
         let device = Device::new().unwrap();
         assert!(device.check().is_ok());
-        // SAFETY: a deliberately invalid geometry type on a live device; Embree
-        // rejects it, returns null and reports through the error callback.
-        let geom = unsafe { ffi::rtcNewGeometry(device.raw, 0xdead) };
-        assert!(geom.is_null());
+        // SAFETY: a new triangle geometry on a live device, released below.
+        let geom = unsafe { ffi::rtcNewGeometry(device.raw, ffi::RTC_GEOMETRY_TYPE_TRIANGLE) };
+        assert!(!geom.is_null());
+        // SAFETY: a deliberately invalid stride (not a multiple of 4) on a live
+        // geometry; Embree rejects it, returns null and reports through the
+        // error callback.
+        let buffer = unsafe {
+            ffi::rtcSetNewGeometryBuffer(geom, ffi::RTC_BUFFER_TYPE_VERTEX, 0, ffi::RTC_FORMAT_FLOAT3, 13, 3)
+        };
+        assert!(buffer.is_null());
         match device.check() {
             Err(Error::Embree { code, message }) => {
                 eprintln!("{code}: {message}");
-                assert_eq!(code, "RTC_ERROR_UNKNOWN");
-                assert!(message.contains("invalid geometry type"), "{message}");
+                // Embree 3 and 4 name this error differently; both explain it.
+                assert!(
+                    ["RTC_ERROR_INVALID_ARGUMENT", "RTC_ERROR_INVALID_OPERATION"].contains(&code),
+                    "{code}"
+                );
+                assert!(message.contains("stride") || message.contains("aligned"), "{message}");
             }
             other => panic!("expected an Embree error, got {other:?}"),
         }
         // Reported once, then cleared.
         assert!(device.check().is_ok());
+        // SAFETY: `geom` is live and owned here.
+        unsafe { ffi::rtcReleaseGeometry(geom) };
     }
 
     #[test]
@@ -512,7 +496,8 @@ mod tests {
     }
 
     #[test]
-    fn device_reports_a_3_x_version() {
-        assert!(Device::new().unwrap().version().starts_with("3."));
+    fn device_reports_the_major_version_it_was_built_for() {
+        let version = Device::new().unwrap().version();
+        assert!(version.starts_with(&format!("{}.", ffi::MAJOR)), "{version}");
     }
 }
