@@ -78,7 +78,7 @@ pub struct Throughput {
 }
 
 /// The ways of tracing that are measured.
-pub const METHODS: [&str; 4] = ["embree single", "embree stream", "embree direct", "native"];
+pub const METHODS: [&str; 4] = ["embree single", "embree batch", "embree direct", "native"];
 
 /// Seconds of the fastest of `repeats` runs of `f`.
 fn best_of(repeats: usize, mut f: impl FnMut()) -> f64 {
@@ -206,6 +206,7 @@ pub fn ray_report(
         stats.nodes,
         stats.depth
     );
+    let _ = writeln!(w, "embree batch: {}", EmbreeIntersector::BATCH_CALL);
     let _ = writeln!(w);
     let header = METHODS.map(|m| format!("{m} (Mrays/s)")).join(" | ");
     let _ = writeln!(w, "| rays | count | {header} | native / embree single |");

@@ -152,6 +152,10 @@ unsafe impl Send for EmbreeIntersector {}
 unsafe impl Sync for EmbreeIntersector {}
 
 impl EmbreeIntersector {
+    /// How [`Intersector::intersect_batch`] hands rays to Embree: one call
+    /// into the ray-stream API (Embree 3), or ray by ray (Embree 4 has no streams).
+    pub const BATCH_CALL: &'static str = ffi::BATCH_CALL;
+
     /// Builds and commits a scene holding `meshes`, one Embree geometry each.
     ///
     /// Returns an error (never undefined behaviour) if an index is out of range.
