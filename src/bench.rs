@@ -9,6 +9,8 @@
 //! Every measurement is the best of several runs, all threads busy.
 
 pub mod error;
+pub mod plot;
+pub mod scale;
 
 use std::time::Instant;
 
@@ -172,7 +174,7 @@ pub fn ray_report(
     let start = Instant::now();
     let scene = Scene::load_with(path, overrides)?;
     let load = start.elapsed().as_secs_f64();
-    let mesh_bytes: usize = scene.meshes.iter().map(|m| m.positions.len() * 24 + m.indices.len() * 12).sum();
+    let mesh_bytes: usize = scene.meshes.iter().map(|m| m.bytes()).sum();
 
     let before = resident_bytes();
     let start = Instant::now();
@@ -234,6 +236,13 @@ pub fn resident_bytes() -> usize {
         .ok()
         .and_then(|s| s.split_whitespace().nth(1)?.parse::<usize>().ok())
         .map_or(0, |pages| pages * 4096)
+}
+
+/// Starts measuring [`peak_resident_bytes`] afresh from the current
+/// resident size (Linux: writes 5 to `/proc/self/clear_refs`; elsewhere
+/// nothing).
+pub fn reset_peak_resident() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
 }
 
 /// Peak resident memory of this process in bytes (Linux; 0 elsewhere).

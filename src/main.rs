@@ -73,6 +73,29 @@ enum BenchCommand {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+    /// Cost against mesh size: for each teapot tessellation level, load
+    /// time, Embree and native BVH build times and memory, peak memory,
+    /// diffuse rays per second, and a small render's time. Prints a Markdown
+    /// table and writes CSV and a log-log plot of seconds against triangles.
+    Scale {
+        /// The scene file (its teapots are re-tessellated at each level).
+        scene: PathBuf,
+        /// Teapot levels, about 64 N^2 triangles each (13 -> 10k, 125 -> 1M, 395 -> 10M, 685 -> 30M).
+        #[arg(long, value_delimiter = ',', default_value = "13,125,395,685")]
+        levels: Vec<u32>,
+        /// Side of the square grid of camera rays whose hits send the diffuse rays.
+        #[arg(long, default_value_t = 512)]
+        rays: u32,
+        /// Size of the render, WIDTHxHEIGHT, with the scene's other settings.
+        #[arg(long, default_value = "320x240")]
+        render_size: String,
+        /// Where to write the table.
+        #[arg(long, default_value = "scale.csv")]
+        csv: PathBuf,
+        /// Where to draw seconds against triangles (SVG).
+        #[arg(long, default_value = "scale.svg")]
+        plot: PathBuf,
+    },
     /// Run time against error: renders the scene with each integrator at
     /// doubling budgets, compares each image with a reference, and writes a
     /// CSV table and a log-log plot of error against seconds.
@@ -200,6 +223,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             bench_rays(&scene, teapot_subdivisions, width, height, repeats)
         }
         Command::Bench(BenchCommand::Error(args)) => bench_error(args),
+        Command::Bench(BenchCommand::Scale { scene, levels, rays, render_size, csv, plot }) => {
+            bench_scale(&scene, &levels, rays, &render_size, &csv, &plot)
+        }
     }
 }
 
@@ -360,16 +386,69 @@ fn bench_rays(
     Ok(())
 }
 
+fn bench_scale(
+    scene: &Path,
+    levels: &[u32],
+    rays: u32,
+    render_size: &str,
+    csv: &Path,
+    plot: &Path,
+) -> anyhow::Result<()> {
+    use caustix::bench::scale;
+    for &level in levels {
+        in_range("--levels", level, 1, limits::MAX_TEAPOT_LEVEL)?;
+    }
+    let rays = in_range("--rays", rays, 1, limits::MAX_IMAGE_SIDE)?;
+    let size = render_size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .filter(|&(w, h)| {
+            (1..=limits::MAX_IMAGE_SIDE).contains(&w) && (1..=limits::MAX_IMAGE_SIDE).contains(&h)
+        })
+        .ok_or_else(|| {
+            anyhow::anyhow!("--render-size must be WIDTHxHEIGHT, e.g. 320x240, found `{render_size}`")
+        })?;
+    check_svg("--plot", plot)?;
+    let text = std::fs::read_to_string(scene).with_context(|| format!("reading {}", scene.display()))?;
+    anyhow::ensure!(
+        text.contains("[[teapot]]"),
+        "{}: bench scale grows the scene's teapots, and this scene has no [[teapot]]",
+        scene.display()
+    );
+    eprintln!(
+        "measuring {} at teapot levels {levels:?} on {} threads",
+        scene.display(),
+        rayon::current_num_threads()
+    );
+    let rows = scale::measure(scene, levels, rays, size, &mut |r| {
+        eprintln!(
+            "{:>10} triangles: load {:.2} s, Embree {:.2} s, native {:.2} s, render {:.2} s",
+            r.triangles, r.load_seconds, r.embree_seconds, r.native_seconds, r.render_seconds
+        )
+    })?;
+    print!("{}", scale::table(&rows));
+    std::fs::write(csv, scale::csv(&rows)).with_context(|| format!("writing {}", csv.display()))?;
+    scale::plot(&rows, plot)?;
+    eprintln!("wrote {} and {}", csv.display(), plot.display());
+    Ok(())
+}
+
+/// Plots are SVG: says so when `path` is named otherwise.
+fn check_svg(flag: &str, path: &Path) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        path.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg")),
+        "{flag} {}: the plot is written as SVG; give a file name ending in .svg",
+        path.display()
+    );
+    Ok(())
+}
+
 fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
     use caustix::bench::error;
     let scene = load(&args.scene)?;
     let reference = caustix::render::image::Image::load(&args.reference)?;
     let levels = in_range("--levels", args.levels, 1, 16)?;
-    anyhow::ensure!(
-        args.plot.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg")),
-        "--plot {}: the plot is written as SVG; give a file name ending in .svg",
-        args.plot.display()
-    );
+    check_svg("--plot", &args.plot)?;
     let mut integrators: Vec<Integrator> = Vec::new();
     for i in &args.integrators {
         if !integrators.contains(i) {
@@ -464,6 +543,12 @@ fn info(path: &Path) -> anyhow::Result<()> {
         scene.meshes.len()
     );
     println!("bounds    {} to {}", b.min, b.max);
+    let bytes: usize = scene.meshes.iter().map(|m| m.bytes()).sum();
+    println!(
+        "memory    {:.1} MiB of positions, normals and indices ({:.1} bytes per triangle)",
+        bytes as f64 / (1024.0 * 1024.0),
+        bytes as f64 / scene.triangle_count().max(1) as f64
+    );
     for m in &scene.meshes {
         println!(
             "  mesh    {:<24} {:>9} triangles  material {}",

@@ -15,6 +15,7 @@ use std::fmt::Write;
 use std::path::Path;
 use std::time::Instant;
 
+use super::plot::{log_log, Series};
 use crate::accel::Intersector;
 use crate::render::image::{Difference, Image};
 use crate::render::sppm::Progressive;
@@ -159,101 +160,14 @@ pub fn csv(points: &[ErrorPoint]) -> String {
 /// Draws RMSE against seconds on log-log axes, one curve per integrator, as
 /// an SVG file at `path`.
 pub fn plot(points: &[ErrorPoint], title: &str, path: &Path) -> crate::Result<()> {
-    use plotters::prelude::*;
-    let failed = |e: &dyn std::fmt::Display| crate::Error::Image {
-        path: path.to_path_buf(),
-        message: format!("drawing the plot: {e}"),
-    };
-    let positive: Vec<&ErrorPoint> =
-        points.iter().filter(|p| p.seconds > 0.0 && p.error.rmse > 0.0).collect();
-    if positive.is_empty() {
-        return Err(failed(&"no point with a positive time and error to plot"));
-    }
-    let range = |values: Vec<f64>| {
-        let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = values.iter().copied().fold(0.0, f64::max);
-        (lo / 1.5)..(hi * 1.5)
-    };
-    let xs = range(positive.iter().map(|p| p.seconds).collect());
-    let ys = range(positive.iter().map(|p| p.error.rmse).collect());
-
-    let root = SVGBackend::new(path, (800, 560)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| failed(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 22))
-        .margin(16)
-        .x_label_area_size(48)
-        .y_label_area_size(72)
-        .build_cartesian_2d(xs.log_scale(), ys.log_scale())
-        .map_err(|e| failed(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("seconds (wall clock)")
-        .y_desc("RMSE against the reference")
-        .x_label_formatter(&|v| short(*v))
-        .y_label_formatter(&|v| short(*v))
-        .draw()
-        .map_err(|e| failed(&e))?;
-    let colours =
-        [RGBColor(200, 60, 40), RGBColor(40, 90, 200), RGBColor(30, 150, 70), RGBColor(150, 60, 170)];
-    let mut integrators: Vec<Integrator> = Vec::new();
-    for p in &positive {
-        if !integrators.contains(&p.integrator) {
-            integrators.push(p.integrator);
+    let mut series: Vec<Series> = Vec::new();
+    for p in points {
+        let name = name(p.integrator);
+        let point = (p.seconds, p.error.rmse);
+        match series.iter_mut().find(|s| s.name == name) {
+            Some(s) => s.points.push(point),
+            None => series.push(Series { name, points: vec![point] }),
         }
     }
-    for (i, &integrator) in integrators.iter().enumerate() {
-        let colour = colours[i % colours.len()];
-        let curve: Vec<(f64, f64)> = positive
-            .iter()
-            .filter(|p| p.integrator == integrator)
-            .map(|p| (p.seconds, p.error.rmse))
-            .collect();
-        chart
-            .draw_series(LineSeries::new(curve.clone(), colour.stroke_width(2)))
-            .map_err(|e| failed(&e))?
-            .label(name(integrator))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
-        chart
-            .draw_series(curve.into_iter().map(|xy| Circle::new(xy, 4, colour.filled())))
-            .map_err(|e| failed(&e))?;
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| failed(&e))?;
-    root.present().map_err(|e| failed(&e))?;
-    Ok(())
-}
-
-/// A tick label with at most three significant digits: `0.6`, `0.05`, `12.5`.
-fn short(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let decimals = (2 - v.abs().log10().floor() as i32).max(0) as usize;
-    let text = format!("{v:.decimals$}");
-    if text.contains('.') {
-        text.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        text
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn tick_labels_are_short() {
-        assert_eq!(short(0.6000000000000001), "0.6");
-        assert_eq!(short(0.05), "0.05");
-        assert_eq!(short(0.123456), "0.123");
-        assert_eq!(short(12.5), "12.5");
-        assert_eq!(short(1000.0), "1000");
-        assert_eq!(short(2.0), "2");
-    }
+    log_log(path, title, "seconds (wall clock)", "RMSE against the reference", &series)
 }

@@ -51,6 +51,13 @@ impl Mesh {
         TriangleView { positions: &self.positions, indices: &self.indices }
     }
 
+    /// Bytes of the mesh's own arrays: positions, normals and indices.
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.positions.as_slice())
+            + std::mem::size_of_val(self.normals.as_slice())
+            + std::mem::size_of_val(self.indices.as_slice())
+    }
+
     /// The bounding box of the vertices.
     pub fn bounds(&self) -> Bounds {
         Bounds::of(&self.positions)
