@@ -344,7 +344,15 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         Integrator::Sppm => settings.photons.sppm.passes,
         Integrator::Normals | Integrator::Depth => 1,
     };
-    if let Some(p) = &stats.photons {
+    if let (Some(p), Integrator::Sppm) = (&stats.photons, settings.integrator) {
+        eprintln!(
+            "photons: {} emitted in {} passes of {}, traced and gathered in {:.2} s",
+            p.global_emitted,
+            settings.photons.sppm.passes,
+            settings.photons.sppm.photons_per_pass,
+            p.trace_seconds
+        );
+    } else if let Some(p) = &stats.photons {
         eprintln!(
             "photons: {} global and {} caustic emitted, traced in {:.2} s, maps built in {:.2} s",
             p.global_emitted, p.caustic_emitted, p.trace_seconds, p.build_seconds

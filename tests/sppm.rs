@@ -2,6 +2,8 @@
 //! a closed sphere converges, pass by pass, with no bias left over; and the
 //! image does not depend on the thread count.
 
+mod common;
+
 use std::f32::consts::PI;
 use std::path::Path;
 
@@ -100,4 +102,30 @@ fn the_image_does_not_depend_on_the_thread_count() {
     assert!(one.iter().any(|c| c.global.x > 0.0), "photons must reach the pixels");
     assert_eq!(one, with(2));
     assert_eq!(one, with(3));
+}
+
+#[test]
+fn cli_renders_progressively_and_says_what_it_did() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::write(dir.path(), "quad.toml", common::QUAD_SCENE);
+    let out = dir.path().join("out.exr");
+    let run = common::caustix(&[
+        "render".as_ref(),
+        scene.as_os_str(),
+        "--integrator".as_ref(),
+        "sppm".as_ref(),
+        "--passes".as_ref(),
+        "3".as_ref(),
+        "--pass-photons".as_ref(),
+        "1000".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(stderr.contains("3000 emitted in 3 passes of 1000"), "{stderr}");
+    assert!(stderr.contains("Sppm, 3 spp"), "{stderr}");
+    // The quad is lit directly: the centre pixel is bright, the corner black.
+    let image = caustix::render::image::Image::load(&out).unwrap();
+    assert!(image.get(32, 32).x > 0.0 && image.get(0, 0) == glam::Vec3::ZERO);
 }
