@@ -2,6 +2,8 @@
 //! map converges to the exact indirect light in a closed sphere, and a glass
 //! ball focuses a caustic where geometric optics puts it.
 
+mod common;
+
 use std::f32::consts::PI;
 use std::path::Path;
 
@@ -10,42 +12,13 @@ use caustix::photon::{trace, Estimate, Pass, PhotonMap};
 use caustix::scene::Scene;
 use glam::Vec3;
 
-/// A closed grey sphere (radius 2, the inside seen) with a 100 W point light
-/// at its centre.
+/// The furnace with no extra tables.
 fn furnace(albedo: f32) -> Scene {
-    let text = format!(
-        r#"
-        [camera]
-        eye = [0, 0, 1]
-        look_at = [0, 0, 0]
-        [materials.grey]
-        diffuse = {albedo}
-        [[point_light]]
-        position = [0, 0, 0]
-        power = 100
-        [[sphere]]
-        center = [0, 0, 0]
-        radius = 2
-        subdivisions = 5
-        material = "grey"
-    "#
-    );
-    Scene::from_toml(&text, Path::new("furnace.toml")).unwrap()
+    common::furnace(albedo, "")
 }
 
 fn accel(scene: &Scene) -> Box<dyn Intersector> {
     caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap()
-}
-
-fn mesh_area(scene: &Scene) -> f32 {
-    let m = &scene.meshes[0];
-    m.indices
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| m.positions[i as usize]);
-            0.5 * (b - a).cross(c - a).length()
-        })
-        .sum()
 }
 
 #[test]
@@ -88,7 +61,7 @@ fn global_map_converges_to_the_exact_indirect_light() {
     let scene = furnace(albedo);
     let accel = accel(&scene);
     let material = &scene.materials[0];
-    let exact = albedo / PI * 100.0 * albedo / ((1.0 - albedo) * mesh_area(&scene));
+    let exact = albedo / PI * 100.0 * albedo / ((1.0 - albedo) * common::mesh_area(&scene));
     let mesh = &scene.meshes[0];
     let mut errors = Vec::new();
     for photons in [2_000u32, 20_000, 200_000] {

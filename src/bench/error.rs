@@ -103,18 +103,8 @@ pub fn measure(
                 while run.passes() < settings.photons.sppm.passes {
                     run.run_pass();
                 }
-                let seconds = start.elapsed().as_secs_f64();
-                let rendered = Rendered {
-                    width: base.width,
-                    height: base.height,
-                    pixels: run.components(),
-                    stats: crate::render::RenderStats {
-                        elapsed: start.elapsed(),
-                        rays: 0,
-                        shadow_rays: 0,
-                        photons: None,
-                    },
-                };
+                let rendered = run.rendered(start.elapsed());
+                let seconds = rendered.stats.elapsed.as_secs_f64();
                 let error = compare(&rendered);
                 push(ErrorPoint { integrator, level, setting: describe(&settings), seconds, error });
             }

@@ -309,18 +309,7 @@ fn render_progressive(
         run.run_pass();
         progress(settings.width as u64 * settings.height as u64);
     }
-    let emitted = run.passes() as u64 * settings.photons.sppm.photons_per_pass as u64;
-    let stats = RenderStats {
-        elapsed: start.elapsed(),
-        rays: run.rays().closest,
-        shadow_rays: run.rays().shadow,
-        photons: Some(PhotonStats {
-            global_emitted: emitted,
-            trace_seconds: run.photon_seconds,
-            ..PhotonStats::default()
-        }),
-    };
-    Rendered { width: settings.width, height: settings.height, pixels: run.components(), stats }
+    run.rendered(start.elapsed())
 }
 
 /// One centred ray per pixel, showing geometry (in the `direct` component).

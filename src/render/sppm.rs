@@ -20,17 +20,17 @@
 //! lights seen through mirrors go to `direct`.
 
 use std::f32::consts::PI;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::surface::SurfacePoint;
 use super::whitted::{RayCount, Whitted};
-use super::{Components, RenderSettings};
+use super::{Components, RenderSettings, RenderStats, Rendered};
 use crate::accel::{Intersector, Ray};
 use crate::light::nearest_emitter;
-use crate::photon::{emit, Arrival};
+use crate::photon::{emit, Arrival, PhotonStats};
 use crate::sampling::Rng;
 use crate::scene::Scene;
 
@@ -94,9 +94,10 @@ pub struct Progressive<'a> {
     settings: &'a RenderSettings,
     pixels: Vec<PixelState>,
     passes: u32,
+    /// Rays traced so far (camera paths and shadow rays; photons not counted).
     rays: RayCount,
     /// Seconds spent tracing photons and gathering them.
-    pub photon_seconds: f64,
+    photon_seconds: f64,
 }
 
 impl<'a> Progressive<'a> {
@@ -128,11 +129,6 @@ impl<'a> Progressive<'a> {
     /// Passes run so far.
     pub fn passes(&self) -> u32 {
         self.passes
-    }
-
-    /// Rays traced so far (camera paths and shadow rays; photons not counted).
-    pub fn rays(&self) -> RayCount {
-        self.rays
     }
 
     /// Runs one pass: visible points, photons, radius update.
@@ -176,8 +172,28 @@ impl<'a> Progressive<'a> {
         self.passes += 1;
     }
 
+    /// The image so far, with its work counts; `elapsed` is the time to report.
+    pub fn rendered(&self, elapsed: Duration) -> Rendered {
+        let photons = PhotonStats {
+            global_emitted: self.passes as u64 * self.settings.photons.sppm.photons_per_pass as u64,
+            trace_seconds: self.photon_seconds,
+            ..PhotonStats::default()
+        };
+        Rendered {
+            width: self.settings.width,
+            height: self.settings.height,
+            pixels: self.components(),
+            stats: RenderStats {
+                elapsed,
+                rays: self.rays.closest,
+                shadow_rays: self.rays.shadow,
+                photons: Some(photons),
+            },
+        }
+    }
+
     /// The image so far, one [`Components`] per pixel, row-major.
-    pub fn components(&self) -> Vec<Components> {
+    fn components(&self) -> Vec<Components> {
         let passes = self.passes.max(1) as f32;
         self.pixels
             .iter()

@@ -20,3 +20,41 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 pub fn caustix(args: &[&std::ffi::OsStr]) -> Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_caustix")).args(args).output().unwrap()
 }
+
+/// A closed grey sphere (radius 2, seen from inside) with a 100 W point
+/// light at its centre: the indirect irradiance is the same everywhere,
+/// `power * a / ((1 - a) area)`. `tables` adds TOML tables (image, photons).
+pub fn furnace(albedo: f32, tables: &str) -> caustix::scene::Scene {
+    let text = format!(
+        r#"
+        [camera]
+        eye = [0, 0, 1]
+        look_at = [0, 0, 0]
+        fov = 60
+        [materials.grey]
+        diffuse = {albedo}
+        [[point_light]]
+        position = [0, 0, 0]
+        power = 100
+        [[sphere]]
+        center = [0, 0, 0]
+        radius = 2
+        subdivisions = 5
+        material = "grey"
+        {tables}
+    "#
+    );
+    caustix::scene::Scene::from_toml(&text, Path::new("furnace.toml")).unwrap()
+}
+
+/// The summed area of the first mesh's triangles.
+pub fn mesh_area(scene: &caustix::scene::Scene) -> f32 {
+    let m = &scene.meshes[0];
+    m.indices
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
