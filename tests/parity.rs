@@ -302,7 +302,7 @@ fn embree_and_native_agree_hit_for_hit() {
     let mut report = Vec::new();
     let mut all_mismatches = Vec::new();
     for case in cases() {
-        let view = [TriangleView { positions: &case.mesh.positions, indices: &case.mesh.indices }];
+        let view = [TriangleView::new(&case.mesh.positions, &case.mesh.indices)];
         let embree = EmbreeIntersector::build(&view).unwrap();
         let native = Bvh::build(&view);
         let mut tally = Tally::default();
@@ -354,7 +354,7 @@ fn native_barycentrics_are_at_least_as_accurate_as_embrees() {
     let mut report = Vec::new();
     for case in cases() {
         let m = &case.mesh;
-        let view = [TriangleView { positions: &m.positions, indices: &m.indices }];
+        let view = [TriangleView::new(&m.positions, &m.indices)];
         let (e, n) = (EmbreeIntersector::build(&view).unwrap(), Bvh::build(&view));
         let (mut worst_e, mut worst_n, mut sum_e, mut sum_n, mut count) = (0f64, 0f64, 0f64, 0f64, 0);
         for (_, ray) in rays(m, case.closed, &mut rng) {
@@ -412,7 +412,7 @@ fn closed_meshes_do_not_leak_through_edges_or_vertices() {
     let mut leaks_total = 0;
     for case in cases().into_iter().filter(|c| c.closed) {
         let m = &case.mesh;
-        let view = [TriangleView { positions: &m.positions, indices: &m.indices }];
+        let view = [TriangleView::new(&m.positions, &m.indices)];
         let backends: [Box<dyn Intersector>; 2] =
             [Box::new(EmbreeIntersector::build(&view).unwrap()), Box::new(Bvh::build(&view))];
         let origins = inside_points(m, backends[0].as_ref(), &mut rng, 4);

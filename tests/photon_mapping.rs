@@ -17,7 +17,7 @@ fn furnace(albedo: f32) -> Scene {
     common::furnace(albedo, "")
 }
 
-fn accel(scene: &Scene) -> Box<dyn Intersector> {
+fn accel(scene: &Scene) -> Box<dyn Intersector + '_> {
     caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap()
 }
 

@@ -26,6 +26,7 @@ fn preview(integrator: Integrator) -> (Scene, caustix::render::image::Image) {
     let settings = RenderSettings { integrator, ..RenderSettings::from_scene(&scene) };
     let rendered = render(&scene, &accel, &settings, &|_| {});
     assert_eq!(rendered.stats.rays, 64 * 64);
+    drop(accel);
     (scene, rendered.image("final").unwrap())
 }
 

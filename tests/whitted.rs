@@ -14,7 +14,7 @@ use common::{caustix, write, QUAD_SCENE};
 use glam::Vec3;
 
 /// The backends every image test runs on.
-fn backends(scene: &Scene) -> Vec<Box<dyn Intersector>> {
+fn backends(scene: &Scene) -> Vec<Box<dyn Intersector + '_>> {
     [Backend::Embree, Backend::Native]
         .map(|b| caustix::accel::build(b, &scene.triangle_views()).unwrap())
         .into()

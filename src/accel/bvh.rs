@@ -93,8 +93,8 @@ impl Bvh {
             .iter()
             .enumerate()
             .flat_map(|(geom_id, mesh)| {
-                mesh.indices.iter().enumerate().map(move |(prim_id, t)| Triangle {
-                    v: t.map(|i| mesh.positions[i as usize]),
+                mesh.indices().iter().enumerate().map(move |(prim_id, t)| Triangle {
+                    v: t.map(|i| mesh.positions()[i as usize]),
                     geom_id: geom_id as u32,
                     prim_id: prim_id as u32,
                 })
@@ -523,7 +523,7 @@ mod tests {
         let indices: Vec<[u32; 3]> = (0..1000u32)
             .flat_map(|q| [[4 * q, 4 * q + 1, 4 * q + 2], [4 * q, 4 * q + 2, 4 * q + 3]])
             .collect();
-        let bvh = Bvh::build(&[TriangleView { positions: &positions, indices: &indices }]);
+        let bvh = Bvh::build(&[TriangleView::new(&positions, &indices)]);
         let stats = bvh.stats();
         assert_eq!(stats.triangles, 2000);
         assert!(stats.depth < 40, "depth {}", stats.depth);
@@ -559,7 +559,7 @@ mod tests {
         // Many triangles at one spot: no SAH split exists, the build still ends.
         let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
         let indices = vec![[0u32, 1, 2]; 100];
-        let bvh = Bvh::build(&[TriangleView { positions: &positions, indices: &indices }]);
+        let bvh = Bvh::build(&[TriangleView::new(&positions, &indices)]);
         assert!(bvh.stats().nodes > 1);
         assert!(bvh.intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z)).is_some());
     }

@@ -24,7 +24,7 @@ pub enum Backend {
 }
 
 /// Builds the chosen intersector over `meshes` (mesh `i` is geometry `i`).
-pub fn build(backend: Backend, meshes: &[TriangleView<'_>]) -> Result<Box<dyn Intersector>> {
+pub fn build<'a>(backend: Backend, meshes: &[TriangleView<'a>]) -> Result<Box<dyn Intersector + 'a>> {
     Ok(match backend {
         Backend::Embree => Box::new(embree::EmbreeIntersector::build(meshes)?),
         Backend::Native => {

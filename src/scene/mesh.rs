@@ -1,9 +1,8 @@
 //! Triangle meshes: shared vertex positions, smooth per-vertex normals, and
 //! the smooth normal at a hit from Embree's barycentrics.
 
-use std::collections::HashMap;
-
 use glam::{Mat3, Mat4, Vec3};
+use rayon::prelude::*;
 
 use crate::accel::embree::TriangleView;
 pub use crate::bounds::Bounds;
@@ -43,12 +42,12 @@ impl Mesh {
             Some(n) => n.into_iter().map(|n| n.normalize_or_zero()).collect(),
             None => vertex_normals(&positions, &indices),
         };
-        Mesh { name: name.into(), positions, normals, indices, material }
+        Mesh { name: name.into(), positions: pad_for_embree(positions), normals, indices, material }
     }
 
     /// The triangles as an intersector reads them.
     pub fn view(&self) -> TriangleView<'_> {
-        TriangleView { positions: &self.positions, indices: &self.indices }
+        TriangleView::padded(&self.positions, &self.indices)
     }
 
     /// Bytes of the mesh's own arrays: positions, normals and indices.
@@ -99,6 +98,15 @@ impl Mesh {
     }
 }
 
+/// Makes sure one zeroed `Vec3` is allocated after the last position, so that
+/// Embree can read the positions in place (see [`TriangleView::padded`]).
+/// Free when the producer allocated one more than it needed; one copy otherwise.
+fn pad_for_embree(mut positions: Vec<Vec3>) -> Vec<Vec3> {
+    positions.reserve_exact(1);
+    positions.spare_capacity_mut()[0].write(Vec3::ZERO);
+    positions
+}
+
 /// `(p1 - p0) x (p2 - p0)`: twice the area, along the counter-clockwise normal.
 fn face_cross(positions: &[Vec3], [i0, i1, i2]: [u32; 3]) -> Vec3 {
     let p0 = positions[i0 as usize];
@@ -114,28 +122,55 @@ fn face_cross(positions: &[Vec3], [i0, i1, i2]: [u32; 3]) -> Vec3 {
 /// vertices were split (e.g. by OBJ texture seams) still shades smoothly.
 /// A vertex with no non-degenerate neighbour gets the zero vector.
 pub fn vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
-    // One slot per distinct position.
-    let mut slot_of_position: HashMap<[u32; 3], usize> = HashMap::with_capacity(positions.len());
-    let slots: Vec<usize> = positions
-        .iter()
-        .map(|p| {
-            let next = slot_of_position.len();
-            *slot_of_position.entry(p.to_array().map(f32::to_bits)).or_insert(next)
-        })
-        .collect();
-    let mut sums = vec![Vec3::ZERO; slot_of_position.len()];
-    for &tri in indices {
-        let Some(face) = face_cross(positions, tri).try_normalize() else {
-            continue;
-        };
-        for corner in 0..3 {
-            let here = positions[tri[corner] as usize];
-            let a = positions[tri[(corner + 1) % 3] as usize] - here;
-            let b = positions[tri[(corner + 2) % 3] as usize] - here;
-            sums[slots[tri[corner] as usize]] += a.angle_between(b) * face;
+    let slots = position_slots(positions);
+    let slot_count = slots.iter().max().map_or(0, |&s| s as usize + 1);
+    let mut sums = vec![Vec3::ZERO; slot_count];
+    // The angle weights (an `acos` per corner) are computed in parallel a
+    // block at a time; the sums are added in triangle order, so the normals
+    // are the same whatever the thread count.
+    const BLOCK: usize = 1 << 16;
+    let mut weighted = vec![[Vec3::ZERO; 3]; indices.len().min(BLOCK)];
+    for block in indices.chunks(BLOCK) {
+        block.par_iter().zip(&mut weighted).for_each(|(&tri, out)| *out = corner_normals(positions, tri));
+        for (tri, corners) in block.iter().zip(&weighted) {
+            for (&vertex, &n) in tri.iter().zip(corners) {
+                sums[slots[vertex as usize] as usize] += n;
+            }
         }
     }
-    slots.iter().map(|&s| sums[s].normalize_or_zero()).collect()
+    slots.iter().map(|&s| sums[s as usize].normalize_or_zero()).collect()
+}
+
+/// The face's unit normal times its angle at each corner (zero for a
+/// degenerate face).
+fn corner_normals(positions: &[Vec3], tri: [u32; 3]) -> [Vec3; 3] {
+    let Some(face) = face_cross(positions, tri).try_normalize() else {
+        return [Vec3::ZERO; 3];
+    };
+    [0, 1, 2].map(|corner| {
+        let here = positions[tri[corner] as usize];
+        let a = positions[tri[(corner + 1) % 3] as usize] - here;
+        let b = positions[tri[(corner + 2) % 3] as usize] - here;
+        a.angle_between(b) * face
+    })
+}
+
+/// For each vertex, a slot shared by all vertices at its bit-identical
+/// position. Found by sorting (in parallel) rather than hashing: a sorted
+/// list of 16-byte keys takes less memory than a hash map of them.
+fn position_slots(positions: &[Vec3]) -> Vec<u32> {
+    let mut keyed: Vec<([u32; 3], u32)> =
+        positions.par_iter().enumerate().map(|(i, p)| (p.to_array().map(f32::to_bits), i as u32)).collect();
+    keyed.par_sort_unstable();
+    let mut slots = vec![0u32; positions.len()];
+    let mut slot = 0;
+    for (k, &(key, vertex)) in keyed.iter().enumerate() {
+        if k > 0 && keyed[k - 1].0 != key {
+            slot += 1;
+        }
+        slots[vertex as usize] = slot;
+    }
+    slots
 }
 
 #[cfg(test)]

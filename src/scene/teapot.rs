@@ -9,6 +9,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::error::{Error, Location, Result};
 
@@ -126,34 +127,41 @@ fn blend(w: [f32; 4], p: [Vec3; 4]) -> Vec3 {
 }
 
 /// Tessellates patches into `level x level` quads each (two triangles per
-/// quad), welding vertices at bit-identical positions so seams between
-/// patches are shared edges. Triangles collapsed at a pole (a degenerate
-/// control row) come out with repeated indices; [`super::mesh::Mesh::new`]
+/// quad), welding vertices at bit-identical positions on patch borders so
+/// seams between patches are shared edges. Triangles collapsed at a pole (a
+/// degenerate control row) come out with repeated indices; [`super::mesh::Mesh::new`]
 /// drops them. The counter-clockwise side is the `dS/du x dS/dv` side.
+///
+/// Patches are evaluated in parallel. Only border points are looked up for
+/// welding (a few per patch edge, not the whole grid): an interior point of
+/// one patch is never a point of another, and were two interior points of one
+/// patch equal, their triangles would have zero area and be dropped anyway.
 pub fn tessellate(patches: &[Patch], level: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let level = level.max(1);
+    let side = level + 1;
     let weights: Vec<[f32; 4]> = (0..=level).map(|i| bernstein(i, level)).collect();
-    let mut index_of: HashMap<[u32; 3], u32> = HashMap::new();
-    let mut positions = Vec::new();
+    let grids: Vec<Vec<Vec3>> = patches.par_iter().map(|patch| evaluate_grid(patch, &weights)).collect();
+
+    let mut border_index: HashMap<[u32; 3], u32> = HashMap::new();
+    // One spare slot: Mesh::new pads the positions for Embree (no copy then).
+    let mut positions = Vec::with_capacity(patches.len() * side * side + 1);
     let mut indices = Vec::with_capacity(patches.len() * level * level * 2);
-    for patch in patches {
-        let mut grid = Vec::with_capacity((level + 1) * (level + 1));
-        for wv in &weights {
-            for wu in &weights {
-                let rows = [0, 1, 2, 3].map(|r| {
-                    blend(*wu, [patch[4 * r], patch[4 * r + 1], patch[4 * r + 2], patch[4 * r + 3]])
-                });
-                // Adding +0.0 turns -0.0 into +0.0 so both weld together.
-                let p = blend(*wv, rows) + Vec3::ZERO;
-                let key = p.to_array().map(f32::to_bits);
-                let next = positions.len() as u32;
-                grid.push(*index_of.entry(key).or_insert_with(|| {
+    let mut grid_index = vec![0u32; side * side];
+    for grid in grids {
+        for (k, p) in grid.into_iter().enumerate() {
+            let (i, j) = (k % side, k / side);
+            let next = positions.len() as u32;
+            grid_index[k] = if i == 0 || j == 0 || i == level || j == level {
+                *border_index.entry(p.to_array().map(f32::to_bits)).or_insert_with(|| {
                     positions.push(p);
                     next
-                }));
-            }
+                })
+            } else {
+                positions.push(p);
+                next
+            };
         }
-        let at = |i: usize, j: usize| grid[j * (level + 1) + i];
+        let at = |i: usize, j: usize| grid_index[j * side + i];
         for j in 0..level {
             for i in 0..level {
                 let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
@@ -163,6 +171,20 @@ pub fn tessellate(patches: &[Patch], level: usize) -> (Vec<Vec3>, Vec<[u32; 3]>)
         }
     }
     (positions, indices)
+}
+
+/// The patch's points at every pair of `weights`, row by row (`v` outer).
+fn evaluate_grid(patch: &Patch, weights: &[[f32; 4]]) -> Vec<Vec3> {
+    let mut grid = Vec::with_capacity(weights.len() * weights.len());
+    for wv in weights {
+        for wu in weights {
+            let rows = [0, 1, 2, 3]
+                .map(|r| blend(*wu, [patch[4 * r], patch[4 * r + 1], patch[4 * r + 2], patch[4 * r + 3]]));
+            // Adding +0.0 turns -0.0 into +0.0 so both weld together.
+            grid.push(blend(*wv, rows) + Vec3::ZERO);
+        }
+    }
+    grid
 }
 
 #[cfg(test)]

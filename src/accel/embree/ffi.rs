@@ -89,8 +89,9 @@ mod embree4 {
     pub use sys::{
         rtcAttachGeometryByID, rtcCommitGeometry, rtcCommitScene, rtcGetDeviceError, rtcGetDeviceProperty,
         rtcNewDevice, rtcNewGeometry, rtcNewScene, rtcReleaseDevice, rtcReleaseGeometry, rtcReleaseScene,
-        rtcSetDeviceErrorFunction, rtcSetNewGeometryBuffer, rtcSetSceneFlags, RTCDevice, RTCError, RTCRay,
-        RTCScene, RTC_INVALID_GEOMETRY_ID, RTC_MAX_INSTANCE_LEVEL_COUNT,
+        rtcSetDeviceErrorFunction, rtcSetNewGeometryBuffer, rtcSetSceneFlags, rtcSetSharedGeometryBuffer,
+        RTCDevice, RTCError, RTCGeometry, RTCRay, RTCScene, RTC_INVALID_GEOMETRY_ID,
+        RTC_MAX_INSTANCE_LEVEL_COUNT,
     };
 
     /// The Embree major version these bindings are for.

@@ -13,6 +13,7 @@
 mod ffi;
 
 use std::ffi::{c_char, c_void, CStr};
+use std::marker::PhantomData;
 use std::sync::Mutex;
 
 use glam::Vec3;
@@ -21,12 +22,44 @@ use super::{Hit, Intersector, Ray};
 use crate::error::{Error, Result};
 
 /// Triangles as Embree reads them: shared positions and index triples.
+///
+/// Embree reads a vertex buffer with 16-byte loads, so it can use our
+/// positions in place (no copy) only when 4 readable bytes follow the last
+/// vertex. [`TriangleView::padded`] knows when they do; other views are copied.
 #[derive(Debug, Clone, Copy)]
 pub struct TriangleView<'a> {
+    positions: &'a [Vec3],
+    indices: &'a [[u32; 3]],
+    // At least one more `Vec3` is allocated after `positions`.
+    padded: bool,
+}
+
+impl<'a> TriangleView<'a> {
+    /// A view of triangles that Embree copies into its own buffers.
+    pub fn new(positions: &'a [Vec3], indices: &'a [[u32; 3]]) -> Self {
+        TriangleView { positions, indices, padded: false }
+    }
+
+    /// A view that Embree reads in place when `positions` has spare capacity
+    /// (see [`crate::scene::Mesh::new`], which reserves it); copied otherwise.
+    pub fn padded(positions: &'a Vec<Vec3>, indices: &'a [[u32; 3]]) -> Self {
+        TriangleView { positions, indices, padded: positions.capacity() > positions.len() }
+    }
+
     /// Vertex positions.
-    pub positions: &'a [Vec3],
+    pub fn positions(&self) -> &'a [Vec3] {
+        self.positions
+    }
+
     /// Counter-clockwise vertex indices, three per triangle.
-    pub indices: &'a [[u32; 3]],
+    pub fn indices(&self) -> &'a [[u32; 3]] {
+        self.indices
+    }
+
+    /// Whether Embree can read these buffers in place.
+    pub fn shareable(&self) -> bool {
+        self.padded
+    }
 }
 
 /// Checks that every index names a vertex of its mesh: out-of-range indices
@@ -135,23 +168,28 @@ impl Drop for Device {
 /// A committed Embree scene of triangle meshes, ready for queries.
 ///
 /// Geometry ids equal the meshes' positions in the slice given to [`build`].
+/// Embree reads padded meshes' vertex and index arrays in place, so the
+/// intersector borrows them for `'a`.
 ///
 /// [`build`]: EmbreeIntersector::build
-pub struct EmbreeIntersector {
+pub struct EmbreeIntersector<'a> {
     scene: ffi::RTCScene,
     // Declared after `scene`; released after it in `Drop` order.
     device: Device,
+    // Triangles (of all meshes) Embree reads from our memory, not its own copy.
+    shared_triangles: usize,
+    meshes: PhantomData<&'a [Vec3]>,
 }
 
 // SAFETY: the scene is committed in `build` and never modified afterwards.
 // Embree documents `rtcIntersect1`/`rtcOccluded1` on a committed scene as safe
 // to call from any number of threads at once, and releasing happens only in
 // `Drop`, which has exclusive access. The error sink is behind a `Mutex`.
-unsafe impl Send for EmbreeIntersector {}
+unsafe impl Send for EmbreeIntersector<'_> {}
 // SAFETY: see `Send` above: all `&self` methods are Embree's thread-safe queries.
-unsafe impl Sync for EmbreeIntersector {}
+unsafe impl Sync for EmbreeIntersector<'_> {}
 
-impl EmbreeIntersector {
+impl<'a> EmbreeIntersector<'a> {
     /// How [`Intersector::intersect_batch`] hands rays to Embree: one call
     /// into the ray-stream API (Embree 3), or ray by ray (Embree 4 has no streams).
     pub const BATCH_CALL: &'static str = ffi::BATCH_CALL;
@@ -159,17 +197,20 @@ impl EmbreeIntersector {
     /// Builds and commits a scene holding `meshes`, one Embree geometry each.
     ///
     /// Returns an error (never undefined behaviour) if an index is out of range.
-    pub fn build(meshes: &[TriangleView<'_>]) -> Result<Self> {
+    pub fn build(meshes: &[TriangleView<'a>]) -> Result<Self> {
         check_indices(meshes)?;
         let device = Device::new()?;
         // SAFETY: `device.raw` is a live device.
         let scene = unsafe { ffi::rtcNewScene(device.raw) };
         device.check()?;
-        let this = EmbreeIntersector { scene, device };
+        let mut this = EmbreeIntersector { scene, device, shared_triangles: 0, meshes: PhantomData };
         // SAFETY: `scene` is live and not yet committed.
         unsafe { ffi::rtcSetSceneFlags(scene, ffi::RTC_SCENE_FLAG_ROBUST) };
         for (id, mesh) in meshes.iter().enumerate() {
             this.attach(id as u32, mesh)?;
+            if mesh.shareable() {
+                this.shared_triangles += mesh.indices.len();
+            }
         }
         // SAFETY: all geometries are attached; committing builds the BVH.
         unsafe { ffi::rtcCommitScene(scene) };
@@ -177,11 +218,70 @@ impl EmbreeIntersector {
         Ok(this)
     }
 
-    fn attach(&self, id: u32, mesh: &TriangleView<'_>) -> Result<()> {
-        let vertex_count = mesh.positions.len();
+    fn attach(&self, id: u32, mesh: &TriangleView<'a>) -> Result<()> {
         // SAFETY: `device.raw` is live; the geometry is released below after attaching.
         let geom = unsafe { ffi::rtcNewGeometry(self.device.raw, ffi::RTC_GEOMETRY_TYPE_TRIANGLE) };
         self.device.check()?;
+        let filled = if mesh.shareable() && !mesh.indices.is_empty() {
+            Self::share_buffers(geom, mesh);
+            self.device.check()
+        } else {
+            self.copy_buffers(geom, mesh)
+        };
+        if let Err(err) = filled {
+            // SAFETY: `geom` is live and owned here.
+            unsafe { ffi::rtcReleaseGeometry(geom) };
+            return Err(err);
+        }
+        // SAFETY: `geom` is complete; attaching takes a reference, so releasing
+        // ours afterwards leaves the scene as the sole owner.
+        unsafe {
+            ffi::rtcCommitGeometry(geom);
+            ffi::rtcAttachGeometryByID(self.scene, geom, id);
+            ffi::rtcReleaseGeometry(geom);
+        }
+        self.device.check()
+    }
+
+    /// Points Embree at the mesh's own arrays: no copy.
+    fn share_buffers(geom: ffi::RTCGeometry, mesh: &TriangleView<'a>) {
+        const _: () = assert!(std::mem::size_of::<Vec3>() == 12 && std::mem::align_of::<Vec3>() == 4);
+        // SAFETY: `Vec3` is three packed `f32`s (checked above), 4-byte
+        // aligned as Embree requires; `shareable()` guarantees the one more
+        // `Vec3` allocated after the last vertex that Embree's 16-byte loads
+        // read. The arrays are borrowed for `'a`, the intersector's lifetime,
+        // so they outlive every use Embree makes of them, and nothing can
+        // write to them while borrowed.
+        unsafe {
+            ffi::rtcSetSharedGeometryBuffer(
+                geom,
+                ffi::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                ffi::RTC_FORMAT_FLOAT3,
+                mesh.positions.as_ptr().cast(),
+                0,
+                std::mem::size_of::<Vec3>(),
+                mesh.positions.len(),
+            )
+        };
+        // SAFETY: `[u32; 3]` is 12 bytes, 4-byte aligned; borrowed for `'a` as above.
+        unsafe {
+            ffi::rtcSetSharedGeometryBuffer(
+                geom,
+                ffi::RTC_BUFFER_TYPE_INDEX,
+                0,
+                ffi::RTC_FORMAT_UINT3,
+                mesh.indices.as_ptr().cast(),
+                0,
+                std::mem::size_of::<[u32; 3]>(),
+                mesh.indices.len(),
+            )
+        };
+    }
+
+    /// Copies the mesh into buffers Embree allocates (and pads).
+    fn copy_buffers(&self, geom: ffi::RTCGeometry, mesh: &TriangleView<'_>) -> Result<()> {
+        let vertex_count = mesh.positions.len();
         // SAFETY: `geom` is a new triangle geometry; Embree allocates (and pads
         // to a 16-byte readable tail) buffers of exactly the requested sizes.
         let vertices = unsafe {
@@ -205,11 +305,7 @@ impl EmbreeIntersector {
                 mesh.indices.len(),
             )
         } as *mut [u32; 3];
-        if let Err(err) = self.device.check() {
-            // SAFETY: `geom` is live and owned here.
-            unsafe { ffi::rtcReleaseGeometry(geom) };
-            return Err(err);
-        }
+        self.device.check()?;
         if vertex_count > 0 {
             // SAFETY: Embree returned a buffer of `vertex_count` float triples.
             let dst = unsafe { std::slice::from_raw_parts_mut(vertices, vertex_count) };
@@ -222,14 +318,12 @@ impl EmbreeIntersector {
             let dst = unsafe { std::slice::from_raw_parts_mut(indices, mesh.indices.len()) };
             dst.copy_from_slice(mesh.indices);
         }
-        // SAFETY: `geom` is complete; attaching takes a reference, so releasing
-        // ours afterwards leaves the scene as the sole owner.
-        unsafe {
-            ffi::rtcCommitGeometry(geom);
-            ffi::rtcAttachGeometryByID(self.scene, geom, id);
-            ffi::rtcReleaseGeometry(geom);
-        }
-        self.device.check()
+        Ok(())
+    }
+
+    /// Triangles Embree reads in place from the meshes (the rest it copied).
+    pub fn shared_triangles(&self) -> usize {
+        self.shared_triangles
     }
 
     fn ray(ray: &Ray) -> ffi::RTCRay {
@@ -251,7 +345,7 @@ impl EmbreeIntersector {
     }
 }
 
-impl Drop for EmbreeIntersector {
+impl Drop for EmbreeIntersector<'_> {
     fn drop(&mut self) {
         // SAFETY: `scene` came from `rtcNewScene` and is released only here.
         unsafe { ffi::rtcReleaseScene(self.scene) };
@@ -299,7 +393,7 @@ impl RawRays {
     }
 }
 
-impl EmbreeIntersector {
+impl EmbreeIntersector<'_> {
     /// Traces `rays` with `rtcIntersect1` straight on Embree's records, in
     /// parallel chunks, with no conversion to or from our types: the baseline
     /// for the cost of the wrapper.
@@ -324,7 +418,7 @@ struct SceneHandle(ffi::RTCScene);
 // allows from any number of threads at once.
 unsafe impl Sync for SceneHandle {}
 
-impl Intersector for EmbreeIntersector {
+impl Intersector for EmbreeIntersector<'_> {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut rayhit = new_rayhit(ray);
         // SAFETY: the scene is committed; `rayhit` is a valid record, 16-byte
@@ -382,7 +476,7 @@ mod tests {
     #[test]
     fn hits_report_embree_barycentrics_and_ccw_normal() {
         let (p, i) = unit_triangle();
-        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
+        let accel = EmbreeIntersector::build(&[TriangleView::new(&p, &i)]).unwrap();
         let hit = accel.intersect(&Ray::new(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z)).unwrap();
         assert!((hit.t - 2.0).abs() < 1e-6);
         assert!((hit.u - 0.25).abs() < 1e-6 && (hit.v - 0.5).abs() < 1e-6);
@@ -396,8 +490,8 @@ mod tests {
     fn a_hit_at_the_origin_does_not_count() {
         // The ray starts exactly in the triangle's plane, inside it.
         let (p, i) = unit_triangle();
-        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
-        let native = crate::accel::bvh::Bvh::build(&[TriangleView { positions: &p, indices: &i }]);
+        let accel = EmbreeIntersector::build(&[TriangleView::new(&p, &i)]).unwrap();
+        let native = crate::accel::bvh::Bvh::build(&[TriangleView::new(&p, &i)]);
         let ray = Ray::new(Vec3::new(0.25, 0.25, 0.0), Vec3::new(0.1, 0.2, -1.0));
         for backend in [&accel as &dyn Intersector, &native] {
             assert_eq!(backend.intersect(&ray), None, "{}", backend.name());
@@ -408,7 +502,7 @@ mod tests {
     #[test]
     fn misses_and_t_max_are_respected() {
         let (p, i) = unit_triangle();
-        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
+        let accel = EmbreeIntersector::build(&[TriangleView::new(&p, &i)]).unwrap();
         assert!(accel.intersect(&Ray::new(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z)).is_none());
         let short = Ray { t_max: 0.5, ..Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z) };
         assert!(accel.intersect(&short).is_none());
@@ -416,10 +510,29 @@ mod tests {
     }
 
     #[test]
+    fn meshes_are_read_in_place_and_answer_as_copies_do() {
+        let sphere = crate::scene::shapes::sphere("s", Vec3::ZERO, 1.0, 3, 0);
+        let shared_view = sphere.view();
+        assert!(shared_view.shareable(), "Mesh::new should leave room for Embree's padding");
+        let shared = EmbreeIntersector::build(&[shared_view]).unwrap();
+        let copied =
+            EmbreeIntersector::build(&[TriangleView::new(&sphere.positions, &sphere.indices)]).unwrap();
+        assert_eq!(shared.shared_triangles(), sphere.indices.len());
+        assert_eq!(copied.shared_triangles(), 0);
+        let mut rng = crate::sampling::Rng::new(7, 0);
+        for _ in 0..2000 {
+            let origin = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
+            let ray = Ray::new(origin, Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5);
+            assert_eq!(shared.intersect(&ray), copied.intersect(&ray));
+            assert_eq!(shared.occluded(&ray), copied.occluded(&ray));
+        }
+    }
+
+    #[test]
     fn out_of_range_indices_are_an_error_not_a_crash() {
         let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
         let bad = [[0u32, 1, 7]];
-        let err = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &bad }]);
+        let err = EmbreeIntersector::build(&[TriangleView::new(&p, &bad)]);
         assert!(matches!(err, Err(Error::Embree { .. })));
     }
 
@@ -459,7 +572,7 @@ mod tests {
     fn queries_from_many_threads_agree() {
         use rayon::prelude::*;
         let (p, i) = unit_triangle();
-        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
+        let accel = EmbreeIntersector::build(&[TriangleView::new(&p, &i)]).unwrap();
         let hits: usize = (0..10_000)
             .into_par_iter()
             .filter(|k| {
@@ -477,7 +590,7 @@ mod tests {
     #[test]
     fn batches_agree_with_single_rays() {
         let (p, i) = unit_triangle();
-        let accel = EmbreeIntersector::build(&[TriangleView { positions: &p, indices: &i }]).unwrap();
+        let accel = EmbreeIntersector::build(&[TriangleView::new(&p, &i)]).unwrap();
         let rays: Vec<Ray> = (0..1000)
             .map(|k| {
                 let (x, y) = ((k % 40) as f32 / 30.0 - 0.1, (k / 40) as f32 / 20.0 - 0.1);
