@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use caustix::accel::Backend;
+use caustix::accel::{Backend, BvhLayout};
 use caustix::render::{Components, Integrator, RenderSettings};
 use caustix::scene::{limits, Scene};
 
@@ -95,6 +95,9 @@ enum BenchCommand {
         /// Where to draw seconds against triangles (SVG).
         #[arg(long, default_value = "scale.svg")]
         plot: PathBuf,
+        /// Embree's BVH layout (fast or compact; auto decides per level).
+        #[arg(long, value_enum, default_value = "fast")]
+        bvh: BvhLayout,
     },
     /// Run time against error: renders the scene with each integrator at
     /// doubling budgets, compares each image with a reference, and writes a
@@ -141,6 +144,11 @@ struct RenderArgs {
     /// Ray intersector (overrides the scene file's [render] backend; default embree).
     #[arg(long, value_enum)]
     backend: Option<Backend>,
+    /// Embree's BVH layout: fast, compact (about a third of the memory while
+    /// building, slower rays) or auto (compact only when fast would not fit
+    /// in available memory; the default). Overrides the scene's [render] bvh.
+    #[arg(long, value_enum)]
+    bvh: Option<BvhLayout>,
     /// Image width in pixels (overrides the scene file).
     #[arg(long)]
     width: Option<u32>,
@@ -223,8 +231,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             bench_rays(&scene, teapot_subdivisions, width, height, repeats)
         }
         Command::Bench(BenchCommand::Error(args)) => bench_error(args),
-        Command::Bench(BenchCommand::Scale { scene, levels, rays, render_size, csv, plot }) => {
-            bench_scale(&scene, &levels, rays, &render_size, &csv, &plot)
+        Command::Bench(BenchCommand::Scale { scene, levels, rays, render_size, csv, plot, bvh }) => {
+            bench_scale(&scene, &levels, rays, bvh, &render_size, &csv, &plot)
         }
     }
 }
@@ -312,8 +320,9 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         .build()
         .context("starting worker threads")?;
     let backend = args.backend.unwrap_or(scene.render.backend);
-    let accel =
-        caustix::accel::build(backend, &scene.triangle_views()).context("building the ray intersector")?;
+    let layout = args.bvh.unwrap_or(scene.render.bvh);
+    let accel = caustix::accel::build_with_layout(backend, layout, &scene.triangle_views())
+        .context("building the ray intersector")?;
 
     let work = caustix::render::work_units(&settings);
     let bar = if std::io::stderr().is_terminal() { ProgressBar::new(work) } else { ProgressBar::hidden() };
@@ -398,6 +407,7 @@ fn bench_scale(
     scene: &Path,
     levels: &[u32],
     rays: u32,
+    bvh: BvhLayout,
     render_size: &str,
     csv: &Path,
     plot: &Path,
@@ -424,11 +434,11 @@ fn bench_scale(
         scene.display()
     );
     eprintln!(
-        "measuring {} at teapot levels {levels:?} on {} threads",
+        "measuring {} at teapot levels {levels:?} on {} threads, Embree's BVH layout {bvh:?}",
         scene.display(),
         rayon::current_num_threads()
     );
-    let rows = scale::measure(scene, levels, rays, size, &mut |r| {
+    let rows = scale::measure(scene, levels, rays, size, bvh, &mut |r| {
         eprintln!(
             "{:>10} triangles: load {:.2} s, Embree {:.2} s, native {:.2} s, render {:.2} s",
             r.triangles, r.load_seconds, r.embree_seconds, r.native_seconds, r.render_seconds
@@ -472,8 +482,9 @@ fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
         .num_threads(args.threads.unwrap_or(0))
         .build()
         .context("starting worker threads")?;
-    let accel = caustix::accel::build(scene.render.backend, &scene.triangle_views())
-        .context("building the ray intersector")?;
+    let accel =
+        caustix::accel::build_with_layout(scene.render.backend, scene.render.bvh, &scene.triangle_views())
+            .context("building the ray intersector")?;
     let settings = RenderSettings::from_scene(&scene);
     eprintln!(
         "measuring {} at {}x{} against {}, {} levels each",
@@ -576,8 +587,9 @@ fn info(path: &Path) -> anyhow::Result<()> {
     for l in &scene.lights {
         println!("  {}", l.describe());
     }
-    let accel = caustix::accel::build(scene.render.backend, &scene.triangle_views())
-        .context("building the ray intersector")?;
+    let accel =
+        caustix::accel::build_with_layout(scene.render.backend, scene.render.bvh, &scene.triangle_views())
+            .context("building the ray intersector")?;
     println!("backend   {}", accel.name());
     Ok(())
 }

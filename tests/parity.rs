@@ -13,7 +13,7 @@ use std::path::Path;
 
 use caustix::accel::bvh::Bvh;
 use caustix::accel::embree::{EmbreeIntersector, TriangleView};
-use caustix::accel::{Hit, Intersector, Ray};
+use caustix::accel::{BvhLayout, Hit, Intersector, Ray};
 use caustix::sampling::{uniform_sphere, Rng};
 use caustix::scene::mesh::Mesh;
 use caustix::scene::shapes::{cuboid, sphere};
@@ -343,6 +343,29 @@ fn embree_and_native_agree_hit_for_hit() {
         all_mismatches.len(),
         all_mismatches.iter().take(10).cloned().collect::<Vec<_>>().join("\n")
     );
+}
+
+/// Embree's compact BVH (leaves index our shared vertex buffer) answers as
+/// the fast one (leaves hold vertex copies) does.
+#[test]
+fn embrees_compact_layout_finds_the_same_hits() {
+    let mut rng = Rng::new(5, 3);
+    for case in cases() {
+        let m = &case.mesh;
+        let fast = EmbreeIntersector::build_with_layout(&[m.view()], BvhLayout::Fast).unwrap();
+        let compact = EmbreeIntersector::build_with_layout(&[m.view()], BvhLayout::Compact).unwrap();
+        assert!(compact.name().ends_with("(compact BVH)"), "{}", compact.name());
+        let mut tally = Tally::default();
+        for (kind, ray) in rays(m, case.closed, &mut rng) {
+            compare(m, case.name, kind, &ray, &fast, &compact, &mut tally);
+        }
+        assert!(tally.mismatches.is_empty(), "{}: {:?}", case.name, &tally.mismatches[..1]);
+        // One kernel on the same vertices: ties only at edges and between
+        // the coplanar case's overlapping triangles.
+        if case.name != "coplanar" {
+            assert!(tally.other_ties * 200 < tally.rays, "{}: {} ties", case.name, tally.other_ties);
+        }
+    }
 }
 
 /// Against the exact answer (f64 from the same inputs, rays at least 10

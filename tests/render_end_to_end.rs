@@ -59,6 +59,26 @@ fn depth_preview_gets_nearer_towards_the_centre() {
 }
 
 #[test]
+fn cli_builds_embrees_compact_bvh_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
+    let out = dir.path().join("out.png");
+    let run = caustix(&[
+        "render".as_ref(),
+        scene.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+        "--integrator".as_ref(),
+        "normals".as_ref(),
+        "--bvh".as_ref(),
+        "compact".as_ref(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(stderr.contains("(compact BVH)"), "summary names the layout: {stderr}");
+}
+
+#[test]
 fn cli_renders_a_png_and_reports_what_it_did() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write(dir.path(), "quad.toml", QUAD_SCENE);

@@ -23,10 +23,64 @@ pub enum Backend {
     Native,
 }
 
-/// Builds the chosen intersector over `meshes` (mesh `i` is geometry `i`).
+/// How Embree lays out its BVH: memory against speed. The native BVH has one layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BvhLayout {
+    /// Leaves hold copies of their triangles' vertices: the fastest rays
+    /// (Embree's default).
+    Fast,
+    /// Leaves index the meshes' own vertex arrays (`RTC_SCENE_FLAG_COMPACT`):
+    /// about a third of the memory while building, slower rays.
+    Compact,
+    /// Compact only when the fast layout would not fit in the memory
+    /// available now (so a huge mesh renders rather than being killed).
+    #[default]
+    Auto,
+}
+
+impl BvhLayout {
+    /// Bytes per triangle Embree's fast layout needs at its peak while
+    /// building: BVH plus build scratch, measured at 10M triangles
+    /// (BENCHMARKS.md, 625 + 315 MiB), rounded up.
+    pub const FAST_BYTES_PER_TRIANGLE: usize = 100;
+
+    /// `Fast` or `Compact`: `Auto` decided for `triangles` triangles.
+    pub fn resolve(self, triangles: usize) -> BvhLayout {
+        match self {
+            BvhLayout::Auto => match available_memory() {
+                Some(free) if triangles.saturating_mul(Self::FAST_BYTES_PER_TRIANGLE) > free => {
+                    BvhLayout::Compact
+                }
+                _ => BvhLayout::Fast,
+            },
+            chosen => chosen,
+        }
+    }
+}
+
+/// Memory the kernel could give this process now (Linux's `MemAvailable`).
+fn available_memory() -> Option<usize> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: usize = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Builds the chosen intersector over `meshes` (mesh `i` is geometry `i`),
+/// Embree's with the fast BVH layout.
 pub fn build<'a>(backend: Backend, meshes: &[TriangleView<'a>]) -> Result<Box<dyn Intersector + 'a>> {
+    build_with_layout(backend, BvhLayout::Fast, meshes)
+}
+
+/// [`build`] with Embree's BVH in `layout`.
+pub fn build_with_layout<'a>(
+    backend: Backend,
+    layout: BvhLayout,
+    meshes: &[TriangleView<'a>],
+) -> Result<Box<dyn Intersector + 'a>> {
     Ok(match backend {
-        Backend::Embree => Box::new(embree::EmbreeIntersector::build(meshes)?),
+        Backend::Embree => Box::new(embree::EmbreeIntersector::build_with_layout(meshes, layout)?),
         Backend::Native => {
             embree::check_indices(meshes)?;
             Box::new(bvh::Bvh::build(meshes))
@@ -108,4 +162,19 @@ pub trait Intersector: Send + Sync {
 
     /// A short name for logs and benchmarks, e.g. `"embree 3.13.5"`.
     fn name(&self) -> String;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn auto_layout_is_compact_only_when_fast_would_not_fit() {
+        assert_eq!(BvhLayout::Fast.resolve(usize::MAX), BvhLayout::Fast);
+        assert_eq!(BvhLayout::Compact.resolve(1), BvhLayout::Compact);
+        assert_eq!(BvhLayout::Auto.resolve(1000), BvhLayout::Fast);
+        // More triangles than any machine's memory holds at 100 bytes each.
+        let huge = usize::MAX / BvhLayout::FAST_BYTES_PER_TRIANGLE;
+        assert_eq!(BvhLayout::Auto.resolve(huge), BvhLayout::Compact);
+    }
 }

@@ -12,7 +12,7 @@ use super::plot::{log_log, Series};
 use super::{peak_resident_bytes, reset_peak_resident, resident_bytes, RaySets};
 use crate::accel::bvh::Bvh;
 use crate::accel::embree::EmbreeIntersector;
-use crate::accel::{Intersector, Ray};
+use crate::accel::{BvhLayout, Intersector, Ray};
 use crate::render::{render, RenderSettings};
 use crate::scene::{Overrides, Scene};
 
@@ -47,13 +47,15 @@ pub struct ScaleRow {
 
 /// Measures the scene at `path` with its teapots at each of `levels`.
 /// Rays: a `rays_side`-square grid of camera rays, then one diffuse ray from
-/// each hit. The render uses the scene's settings at `render_size`.
+/// each hit. The render uses the scene's settings at `render_size`. Embree's
+/// BVH is built in `layout`.
 /// `report` sees each row when it is done.
 pub fn measure(
     path: &Path,
     levels: &[u32],
     rays_side: u32,
     render_size: (u32, u32),
+    layout: BvhLayout,
     report: &mut dyn FnMut(&ScaleRow),
 ) -> crate::Result<Vec<ScaleRow>> {
     let mut rows = Vec::new();
@@ -66,7 +68,7 @@ pub fn measure(
 
         let before = resident_bytes();
         let start = Instant::now();
-        let embree = EmbreeIntersector::build(&scene.triangle_views())?;
+        let embree = EmbreeIntersector::build_with_layout(&scene.triangle_views(), layout)?;
         let embree_seconds = start.elapsed().as_secs_f64();
         let embree_bytes = resident_bytes().saturating_sub(before);
         let peak_with_embree = peak_resident_bytes();

@@ -110,6 +110,8 @@ pub struct RenderSection {
     pub integrator: crate::render::Integrator,
     #[serde(default = "default_backend")]
     pub backend: crate::accel::Backend,
+    #[serde(default)]
+    pub bvh: crate::accel::BvhLayout,
     #[serde(default = "default_max_depth", deserialize_with = "max_depth")]
     pub max_depth: u32,
     #[serde(default = "default_light_samples", deserialize_with = "light_samples")]
@@ -123,6 +125,7 @@ impl Default for RenderSection {
         RenderSection {
             integrator: default_integrator(),
             backend: default_backend(),
+            bvh: Default::default(),
             max_depth: default_max_depth(),
             light_samples: default_light_samples(),
             ambient: None,

@@ -48,6 +48,8 @@ pub struct RenderOptions {
     pub integrator: crate::render::Integrator,
     /// The intersector.
     pub backend: crate::accel::Backend,
+    /// Embree's BVH layout.
+    pub bvh: crate::accel::BvhLayout,
     /// Longest chain of rays from the camera.
     pub max_depth: u32,
     /// Shadow-ray samples per area light at each shading point.
@@ -159,6 +161,7 @@ impl Builder<'_> {
         let render = RenderOptions {
             integrator: f.render.integrator,
             backend: f.render.backend,
+            bvh: f.render.bvh,
             max_depth: f.render.max_depth,
             light_samples: f.render.light_samples,
             ambient: f.render.ambient.map_or(Vec3::ZERO, |a| a.0),

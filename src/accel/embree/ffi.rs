@@ -109,7 +109,9 @@ mod embree4 {
     pub const RTC_ERROR_UNSUPPORTED_CPU: RTCError = RTCError::UNSUPPORTED_CPU;
     pub const RTC_ERROR_CANCELLED: RTCError = RTCError::CANCELLED;
     pub const RTC_DEVICE_PROPERTY_VERSION: sys::RTCDeviceProperty = sys::RTCDeviceProperty::VERSION;
+    pub const RTC_SCENE_FLAG_NONE: sys::RTCSceneFlags = sys::RTCSceneFlags::NONE;
     pub const RTC_SCENE_FLAG_ROBUST: sys::RTCSceneFlags = sys::RTCSceneFlags::ROBUST;
+    pub const RTC_SCENE_FLAG_COMPACT: sys::RTCSceneFlags = sys::RTCSceneFlags::COMPACT;
     pub const RTC_GEOMETRY_TYPE_TRIANGLE: sys::RTCGeometryType = sys::RTCGeometryType::TRIANGLE;
     pub const RTC_BUFFER_TYPE_VERTEX: sys::RTCBufferType = sys::RTCBufferType::VERTEX;
     pub const RTC_BUFFER_TYPE_INDEX: sys::RTCBufferType = sys::RTCBufferType::INDEX;

@@ -18,7 +18,7 @@ use std::sync::Mutex;
 
 use glam::Vec3;
 
-use super::{Hit, Intersector, Ray};
+use super::{BvhLayout, Hit, Intersector, Ray};
 use crate::error::{Error, Result};
 
 /// Triangles as Embree reads them: shared positions and index triples.
@@ -178,6 +178,8 @@ pub struct EmbreeIntersector<'a> {
     device: Device,
     // Triangles (of all meshes) Embree reads from our memory, not its own copy.
     shared_triangles: usize,
+    // Built with `RTC_SCENE_FLAG_COMPACT`.
+    compact: bool,
     meshes: PhantomData<&'a [Vec3]>,
 }
 
@@ -198,14 +200,24 @@ impl<'a> EmbreeIntersector<'a> {
     ///
     /// Returns an error (never undefined behaviour) if an index is out of range.
     pub fn build(meshes: &[TriangleView<'a>]) -> Result<Self> {
+        Self::build_with_layout(meshes, BvhLayout::Fast)
+    }
+
+    /// [`build`](Self::build) with the BVH in `layout` (`Auto` decided by
+    /// the triangle count and the memory available).
+    pub fn build_with_layout(meshes: &[TriangleView<'a>], layout: BvhLayout) -> Result<Self> {
         check_indices(meshes)?;
+        let triangles = meshes.iter().map(|m| m.indices.len()).sum();
+        let compact = layout.resolve(triangles) == BvhLayout::Compact;
         let device = Device::new()?;
         // SAFETY: `device.raw` is a live device.
         let scene = unsafe { ffi::rtcNewScene(device.raw) };
         device.check()?;
-        let mut this = EmbreeIntersector { scene, device, shared_triangles: 0, meshes: PhantomData };
+        let mut this = EmbreeIntersector { scene, device, shared_triangles: 0, compact, meshes: PhantomData };
+        let flags = ffi::RTC_SCENE_FLAG_ROBUST
+            | if compact { ffi::RTC_SCENE_FLAG_COMPACT } else { ffi::RTC_SCENE_FLAG_NONE };
         // SAFETY: `scene` is live and not yet committed.
-        unsafe { ffi::rtcSetSceneFlags(scene, ffi::RTC_SCENE_FLAG_ROBUST) };
+        unsafe { ffi::rtcSetSceneFlags(scene, flags) };
         for (id, mesh) in meshes.iter().enumerate() {
             this.attach(id as u32, mesh)?;
             if mesh.shareable() {
@@ -461,7 +473,8 @@ impl Intersector for EmbreeIntersector<'_> {
     }
 
     fn name(&self) -> String {
-        format!("embree {}", self.device.version())
+        let layout = if self.compact { " (compact BVH)" } else { "" };
+        format!("embree {}{layout}", self.device.version())
     }
 }
 
