@@ -12,6 +12,7 @@ pub mod limits {
 }
 pub mod mesh;
 pub mod obj;
+pub mod ply;
 pub mod shapes;
 pub mod teapot;
 mod values;
@@ -111,6 +112,18 @@ impl Scene {
             }
         })?;
         Builder { text, path, overrides, warnings: Vec::new() }.build(parsed)
+    }
+
+    /// All meshes' positions, normals and triangles in one set (for export).
+    pub fn merged_triangles(&self) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
+        let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
+        for m in &self.meshes {
+            let offset = positions.len() as u32;
+            positions.extend_from_slice(&m.positions);
+            normals.extend_from_slice(&m.normals);
+            indices.extend(m.indices.iter().map(|t| t.map(|i| i + offset)));
+        }
+        (positions, normals, indices)
     }
 
     /// All meshes as an intersector reads them, in geometry-id order.
@@ -276,7 +289,7 @@ impl Builder<'_> {
         for m in &f.mesh {
             let obj_path = self.relative(m.file.get_ref());
             let material = m.material.as_ref().map(&lookup).transpose()?;
-            let contents = obj::load(&obj_path, material, materials.len()).map_err(|e| match e {
+            let contents = load_mesh_file(&obj_path, material, materials.len()).map_err(|e| match e {
                 Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self.error_at(
                     m.file.span(),
                     format!(
@@ -438,6 +451,22 @@ fn transform_matrix(t: &file::TransformSection) -> Mat4 {
     let [rx, ry, rz] = t.rotate.map_or(Vec3::ZERO, |r| r.0).to_array().map(f32::to_radians);
     let rotation = Quat::from_euler(EulerRot::ZYX, rz, ry, rx);
     Mat4::from_scale_rotation_translation(scale, rotation, t.translate.map_or(Vec3::ZERO, |v| v.0))
+}
+
+/// Meshes from an OBJ or PLY file (by extension). PLY files have no
+/// materials, so their `[[mesh]]` must name one.
+fn load_mesh_file(path: &Path, material: Option<usize>, first_material: usize) -> Result<obj::ObjContents> {
+    let is_ply = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+    if !is_ply {
+        return obj::load(path, material, first_material);
+    }
+    let material = material.ok_or_else(|| {
+        Error::input(path, "PLY files carry no materials; give the [[mesh]] a `material = \"...\"`")
+    })?;
+    let ply = ply::load(path)?;
+    let name = path.file_name().map_or_else(|| "ply".into(), |n| n.to_string_lossy().into_owned());
+    let mesh = Mesh::new(name, ply.positions, ply.indices, ply.normals, material);
+    Ok(obj::ObjContents { meshes: vec![mesh], materials: Vec::new(), warnings: Vec::new() })
 }
 
 #[cfg(test)]

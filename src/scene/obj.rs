@@ -173,6 +173,26 @@ pub fn locate_problem(text: &str) -> Option<(usize, String)> {
     None
 }
 
+/// Writes triangles as OBJ text: `v`, `vn` and `f v//vn` lines.
+pub fn write(
+    mut out: impl std::io::Write,
+    positions: &[Vec3],
+    normals: &[Vec3],
+    indices: &[[u32; 3]],
+) -> std::io::Result<()> {
+    for p in positions {
+        writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for n in normals {
+        writeln!(out, "vn {} {} {}", n.x, n.y, n.z)?;
+    }
+    for t in indices {
+        let [a, b, c] = t.map(|i| i + 1);
+        writeln!(out, "f {a}//{a} {b}//{b} {c}//{c}")?;
+    }
+    out.flush()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
