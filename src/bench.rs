@@ -9,8 +9,10 @@
 //! Every measurement is the best of several runs, all threads busy.
 
 pub mod error;
+pub mod photons;
 pub mod plot;
 pub mod scale;
+pub mod threads;
 
 use std::time::Instant;
 

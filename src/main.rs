@@ -66,6 +66,43 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Thread scaling: Embree and native BVH builds, photon tracing and the
+    /// whole render on each thread count, with speed-ups, and a check that
+    /// the image is the same bit for bit. Prints a Markdown table.
+    Threads {
+        /// The scene file.
+        scene: PathBuf,
+        /// Thread counts to compare.
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<u32>,
+        /// Re-tessellate every teapot at this many quads per patch edge
+        /// (125 -> 1M triangles), so the builds have work to share.
+        #[arg(long)]
+        teapot_subdivisions: Option<u32>,
+        /// Size of the render, WIDTHxHEIGHT, with the scene's other settings.
+        #[arg(long, default_value = "320x240")]
+        render_size: String,
+    },
+    /// Photon maps at scale: for each photon count, tracing time, memory per
+    /// photon, kd-tree build time and k-nearest queries per second on one
+    /// and on all threads. Prints a Markdown table.
+    Photons {
+        /// The scene file (its lights and surfaces; global photons).
+        scene: PathBuf,
+        /// Photons to emit, one map per count.
+        #[arg(long, value_delimiter = ',', default_value = "100000,1000000,10000000")]
+        counts: Vec<u32>,
+        /// Neighbours per query.
+        #[arg(long, default_value_t = 50)]
+        k: u32,
+        /// Queries per map (at stored photons' positions).
+        #[arg(long, default_value_t = 1_000_000)]
+        queries: u32,
+        /// Write the last map's points and queries here, for
+        /// scripts/bench-nanoflann.sh to answer the same queries.
+        #[arg(long)]
+        dump: Option<PathBuf>,
+    },
     /// Rays per second for primary, shadow and diffuse rays through Embree
     /// (single rays, ray streams, and called directly) and the native BVH,
     /// with build times and memory. Prints a Markdown table.
@@ -247,6 +284,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             bench_rays(&scene, teapot_subdivisions, width, height, repeats)
         }
         Command::Bench(BenchCommand::Error(args)) => bench_error(args),
+        Command::Bench(BenchCommand::Threads { scene, threads, teapot_subdivisions, render_size }) => {
+            bench_threads(&scene, &threads, teapot_subdivisions, &render_size)
+        }
+        Command::Bench(BenchCommand::Photons { scene, counts, k, queries, dump }) => {
+            bench_photons(&scene, &counts, k, queries, dump.as_deref())
+        }
         Command::Bench(BenchCommand::Scale { scene, levels, rays, render_size, csv, plot, bvh }) => {
             bench_scale(&scene, &levels, rays, bvh, &render_size, &csv, &plot)
         }
@@ -337,7 +380,9 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         .context("starting worker threads")?;
     let backend = args.backend.unwrap_or(scene.render.backend);
     let layout = args.bvh.unwrap_or(scene.render.bvh);
-    let accel = caustix::accel::build_with_layout(backend, layout, &scene.triangle_views())
+    // Inside the pool, so that --threads bounds the BVH builds too.
+    let accel = pool
+        .install(|| caustix::accel::build_with_layout(backend, layout, &scene.triangle_views()))
         .context("building the ray intersector")?;
 
     let work = caustix::render::work_units(&settings);
@@ -419,6 +464,92 @@ fn bench_rays(
     Ok(())
 }
 
+fn bench_photons(
+    path: &Path,
+    counts: &[u32],
+    k: u32,
+    queries: u32,
+    dump: Option<&Path>,
+) -> anyhow::Result<()> {
+    for &count in counts {
+        in_range("--counts", count, 1, limits::MAX_PHOTONS)?;
+    }
+    let k = in_range("--k", k, 1, 10_000)? as usize;
+    let queries = in_range("--queries", queries, 1, 100_000_000)? as usize;
+    let scene = load(path)?;
+    let accel = caustix::accel::build(scene.render.backend, &scene.triangle_views())
+        .context("building the ray intersector")?;
+    eprintln!(
+        "photon maps for {} at {counts:?} emitted photons, {k} nearest, on {} threads",
+        path.display(),
+        rayon::current_num_threads()
+    );
+    let rows = caustix::bench::photons::measure(
+        &scene,
+        accel.as_ref(),
+        counts,
+        k,
+        queries,
+        dump,
+        &mut |r| {
+            eprintln!(
+            "{:>10} emitted, {} stored: traced in {:.2} s, tree built in {:.2} s, {:.3} M queries/s on 1 thread; \
+             sum of squared distances {:.6e}",
+            r.emitted, r.stored, r.trace_seconds, r.build_seconds, r.mqueries_one_thread, r.distance_sum
+        )
+        },
+    )?;
+    print!("{}", caustix::bench::photons::table(&rows));
+    if let Some(dump) = dump {
+        eprintln!("wrote the last map's points and queries to {}", dump.display());
+    }
+    Ok(())
+}
+
+/// `--render-size WIDTHxHEIGHT`.
+fn parse_render_size(text: &str) -> anyhow::Result<(u32, u32)> {
+    text.split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .filter(|&(w, h)| {
+            (1..=limits::MAX_IMAGE_SIDE).contains(&w) && (1..=limits::MAX_IMAGE_SIDE).contains(&h)
+        })
+        .ok_or_else(|| anyhow::anyhow!("--render-size must be WIDTHxHEIGHT, e.g. 320x240, found `{text}`"))
+}
+
+fn bench_threads(
+    path: &Path,
+    threads: &[u32],
+    teapot_subdivisions: Option<u32>,
+    render_size: &str,
+) -> anyhow::Result<()> {
+    let threads: Vec<usize> = threads
+        .iter()
+        .map(|&n| in_range("--threads", n, 1, 1024).map(|n| n as usize))
+        .collect::<Result<_, _>>()?;
+    if let Some(level) = teapot_subdivisions {
+        in_range("--teapot-subdivisions", level, 1, limits::MAX_TEAPOT_LEVEL)?;
+    }
+    let (width, height) = parse_render_size(render_size)?;
+    let scene = Scene::load_with(path, &caustix::scene::Overrides { teapot_subdivisions })
+        .with_context(|| format!("loading {}", path.display()))?;
+    let settings = RenderSettings { width, height, ..RenderSettings::from_scene(&scene) };
+    eprintln!(
+        "thread scaling on {} ({} triangles, {width}x{height}, {:?} integrator) at {threads:?} threads",
+        path.display(),
+        scene.triangle_count(),
+        settings.integrator
+    );
+    let rows = caustix::bench::threads::measure(&scene, &settings, &threads, &mut |r| {
+        eprintln!(
+            "{} threads: Embree {:.2} s, native {:.2} s, photons {:.2} s, render {:.2} s",
+            r.threads, r.embree_build, r.native_build, r.photons, r.render
+        )
+    })?;
+    print!("{}", caustix::bench::threads::table(&rows));
+    anyhow::ensure!(rows.iter().all(|r| r.same_image), "the image changed with the thread count");
+    Ok(())
+}
+
 fn bench_scale(
     scene: &Path,
     levels: &[u32],
@@ -433,15 +564,7 @@ fn bench_scale(
         in_range("--levels", level, 1, limits::MAX_TEAPOT_LEVEL)?;
     }
     let rays = in_range("--rays", rays, 1, limits::MAX_IMAGE_SIDE)?;
-    let size = render_size
-        .split_once('x')
-        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
-        .filter(|&(w, h)| {
-            (1..=limits::MAX_IMAGE_SIDE).contains(&w) && (1..=limits::MAX_IMAGE_SIDE).contains(&h)
-        })
-        .ok_or_else(|| {
-            anyhow::anyhow!("--render-size must be WIDTHxHEIGHT, e.g. 320x240, found `{render_size}`")
-        })?;
+    let size = parse_render_size(render_size)?;
     check_svg("--plot", plot)?;
     let text = std::fs::read_to_string(scene).with_context(|| format!("reading {}", scene.display()))?;
     anyhow::ensure!(

@@ -77,3 +77,56 @@ fn one_row_per_level_with_growing_triangle_counts() {
     assert!(!run.status.success());
     assert!(String::from_utf8_lossy(&run.stderr).contains("no [[teapot]]"));
 }
+
+#[test]
+fn bench_threads_times_each_count_and_finds_the_same_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "teapot.toml", SCENE);
+    let run = caustix(&[
+        "bench".as_ref(),
+        "threads".as_ref(),
+        scene.as_os_str(),
+        "--threads".as_ref(),
+        "1,2".as_ref(),
+        "--render-size".as_ref(),
+        "24x16".as_ref(),
+    ]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let rows: Vec<&str> = stdout.lines().filter(|l| l.starts_with("| 1 ") || l.starts_with("| 2 ")).collect();
+    assert_eq!(rows.len(), 2, "{stdout}");
+    assert!(rows.iter().all(|r| r.ends_with("| yes |")), "{stdout}");
+}
+
+#[test]
+fn bench_photons_reports_memory_and_query_rates() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "teapot.toml", SCENE);
+    let dump = dir.path().join("points.bin");
+    let run = caustix(&[
+        "bench".as_ref(),
+        "photons".as_ref(),
+        scene.as_os_str(),
+        "--counts".as_ref(),
+        "1000,4000".as_ref(),
+        "--queries".as_ref(),
+        "500".as_ref(),
+        "--dump".as_ref(),
+        dump.as_os_str(),
+    ]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let stored: Vec<usize> = stdout
+        .lines()
+        .filter(|l| l.starts_with("| 1000 ") || l.starts_with("| 4000 "))
+        .map(|l| l.split('|').nth(2).unwrap().trim().parse().unwrap())
+        .collect();
+    assert_eq!(stored.len(), 2, "{stdout}");
+    assert!(stored[1] > stored[0] && stored[0] > 0, "{stdout}");
+    // The dump: u64 count, that many f32 triples, u64 queries, triples, u32 k.
+    let bytes = std::fs::read(&dump).unwrap();
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    assert_eq!(n, stored[1]);
+    let q = u64::from_le_bytes(bytes[8 + 12 * n..16 + 12 * n].try_into().unwrap()) as usize;
+    assert_eq!(bytes.len(), 16 + 12 * (n + q) + 4);
+}

@@ -131,7 +131,7 @@ impl PhotonMap {
 
     /// The indices of up to `k` photons nearest `p` within `max_radius`,
     /// with their squared distances, nearest first.
-    fn nearest(&self, p: Vec3, k: usize, max_radius: f32) -> Vec<(f32, usize)> {
+    pub fn nearest(&self, p: Vec3, k: usize, max_radius: f32) -> Vec<(f32, usize)> {
         let (Some(k), Some(tree)) = (NonZero::new(k), &self.tree) else { return Vec::new() };
         tree.query(&p.to_array())
             .nearest_n::<SquaredEuclidean<f32>>(k)

@@ -12,7 +12,7 @@
 
 mod ffi;
 
-use std::ffi::{c_char, c_void, CStr};
+use std::ffi::{c_char, c_void, CStr, CString};
 use std::marker::PhantomData;
 use std::sync::Mutex;
 
@@ -121,10 +121,13 @@ pub struct Device {
 }
 
 impl Device {
-    /// Creates a device with Embree's default configuration.
+    /// Creates a device with as many build threads as the current rayon
+    /// pool has (so `--threads` limits Embree too), Embree's defaults otherwise.
     pub fn new() -> Result<Self> {
-        // SAFETY: a null config string asks for the defaults.
-        let raw = unsafe { ffi::rtcNewDevice(std::ptr::null()) };
+        let config = CString::new(format!("threads={}", rayon::current_num_threads()))
+            .expect("no NUL in a formatted number");
+        // SAFETY: `config` is a NUL-terminated string that outlives the call.
+        let raw = unsafe { ffi::rtcNewDevice(config.as_ptr()) };
         if raw.is_null() {
             // SAFETY: with a null device this reads the thread's creation error.
             let code = unsafe { ffi::rtcGetDeviceError(std::ptr::null_mut()) };
