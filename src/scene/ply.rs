@@ -252,16 +252,28 @@ impl<R: BufRead> DataReader<'_, R> {
         }
     }
 
-    /// Reads one record: scalar property `k`'s value lands in `out[k]`; lists
-    /// are read past.
-    fn scalars(&mut self, element: &Element, index: usize, out: &mut [f64]) -> Result<()> {
+    /// Reads one record: scalar property `k`'s value lands in `out[k]`, the
+    /// items of list property `list` (if given) in `items`; other lists are
+    /// read past.
+    fn record(
+        &mut self,
+        element: &Element,
+        index: usize,
+        out: &mut [f64],
+        list: Option<usize>,
+        items: &mut Vec<f64>,
+    ) -> Result<()> {
         let what = || format!("{} {}", element.name, index + 1);
+        items.clear();
         for (k, property) in element.properties.iter().enumerate() {
             match *property {
                 Property::Scalar { kind, .. } => out[k] = self.value(kind, &what)?,
                 Property::List { count, item, .. } => {
                     for _ in 0..self.value(count, &what)? as usize {
-                        self.value(item, &what)?;
+                        let v = self.value(item, &what)?;
+                        if list == Some(k) {
+                            items.push(v);
+                        }
                     }
                 }
             }
@@ -272,7 +284,7 @@ impl<R: BufRead> DataReader<'_, R> {
     fn skip(&mut self, element: &Element) -> Result<()> {
         let mut values = vec![0.0; element.properties.len()];
         for i in 0..element.count {
-            self.scalars(element, i, &mut values)?;
+            self.record(element, i, &mut values, None, &mut Vec::new())?;
         }
         Ok(())
     }
@@ -339,7 +351,7 @@ impl<R: BufRead> DataReader<'_, R> {
             _ => {
                 let mut values = vec![0.0; element.properties.len()];
                 for i in 0..element.count {
-                    self.scalars(element, i, &mut values)?;
+                    self.record(element, i, &mut values, None, &mut Vec::new())?;
                     let point = |[a, b, c]: [usize; 3]| {
                         Vec3::new(values[a] as f32, values[b] as f32, values[c] as f32)
                     };
@@ -363,25 +375,10 @@ impl<R: BufRead> DataReader<'_, R> {
             return Err(self.error("the face element has no `vertex_indices` list".into()));
         };
         let mut indices = Vec::with_capacity(element.count.min(MAX_RESERVE));
+        let mut scalars = vec![0.0; element.properties.len()];
         let mut corners: Vec<f64> = Vec::new();
         for face in 0..element.count {
-            corners.clear();
-            let what = || format!("face {}", face + 1);
-            for (k, property) in element.properties.iter().enumerate() {
-                match *property {
-                    Property::Scalar { kind, .. } => {
-                        self.value(kind, &what)?;
-                    }
-                    Property::List { count, item, .. } => {
-                        for _ in 0..self.value(count, &what)? as usize {
-                            let v = self.value(item, &what)?;
-                            if k == list {
-                                corners.push(v);
-                            }
-                        }
-                    }
-                }
-            }
+            self.record(element, face, &mut scalars, Some(list), &mut corners)?;
             if corners.len() < 3 {
                 return Err(self.error(format!(
                     "face {} has {} vertices; a face needs 3",
