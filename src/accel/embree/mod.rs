@@ -222,8 +222,7 @@ impl<'a> EmbreeIntersector<'a> {
         // SAFETY: `scene` is live and not yet committed.
         unsafe { ffi::rtcSetSceneFlags(scene, flags) };
         for (id, mesh) in meshes.iter().enumerate() {
-            this.attach(id as u32, mesh)?;
-            if mesh.shareable() {
+            if this.attach(id as u32, mesh)? {
                 this.shared_triangles += mesh.indices.len();
             }
         }
@@ -233,11 +232,13 @@ impl<'a> EmbreeIntersector<'a> {
         Ok(this)
     }
 
-    fn attach(&self, id: u32, mesh: &TriangleView<'a>) -> Result<()> {
+    /// Adds `mesh` as geometry `id`; says whether Embree reads it in place.
+    fn attach(&self, id: u32, mesh: &TriangleView<'a>) -> Result<bool> {
         // SAFETY: `device.raw` is live; the geometry is released below after attaching.
         let geom = unsafe { ffi::rtcNewGeometry(self.device.raw, ffi::RTC_GEOMETRY_TYPE_TRIANGLE) };
         self.device.check()?;
-        let filled = if mesh.shareable() && !mesh.indices.is_empty() {
+        let shared = mesh.shareable() && !mesh.indices.is_empty();
+        let filled = if shared {
             Self::share_buffers(geom, mesh);
             self.device.check()
         } else {
@@ -255,7 +256,7 @@ impl<'a> EmbreeIntersector<'a> {
             ffi::rtcAttachGeometryByID(self.scene, geom, id);
             ffi::rtcReleaseGeometry(geom);
         }
-        self.device.check()
+        self.device.check().map(|()| shared)
     }
 
     /// Points Embree at the mesh's own arrays: no copy.
