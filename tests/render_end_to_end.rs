@@ -58,41 +58,37 @@ fn depth_preview_gets_nearer_towards_the_centre() {
     assert_eq!(image.get(0, 0), Vec3::ZERO);
 }
 
-#[test]
-fn cli_builds_embrees_compact_bvh_when_asked() {
+/// `caustix render` of the quad scene's normals to a PNG, with `extra`
+/// flags; returns the run's stderr (after checking it succeeded), the PNG's
+/// path and the folder holding both.
+fn render_quad_normals(extra: &[&str]) -> (String, std::path::PathBuf, tempfile::TempDir) {
     let dir = tempfile::tempdir().unwrap();
     let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
     let out = dir.path().join("out.png");
-    let run = caustix(&[
+    let mut args = vec![
         "render".as_ref(),
         scene.as_os_str(),
         "-o".as_ref(),
         out.as_os_str(),
         "--integrator".as_ref(),
         "normals".as_ref(),
-        "--bvh".as_ref(),
-        "compact".as_ref(),
-    ]);
-    let stderr = String::from_utf8_lossy(&run.stderr);
+    ];
+    args.extend(extra.iter().map(std::ffi::OsStr::new));
+    let run = caustix(&args);
+    let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
     assert!(run.status.success(), "{stderr}");
+    (stderr, out, dir)
+}
+
+#[test]
+fn cli_builds_embrees_compact_bvh_when_asked() {
+    let (stderr, _, _dir) = render_quad_normals(&["--bvh", "compact"]);
     assert!(stderr.contains("(compact BVH)"), "summary names the layout: {stderr}");
 }
 
 #[test]
 fn cli_renders_a_png_and_reports_what_it_did() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
-    let out = dir.path().join("out.png");
-    let run = caustix(&[
-        "render".as_ref(),
-        scene.as_os_str(),
-        "-o".as_ref(),
-        out.as_os_str(),
-        "--integrator".as_ref(),
-        "normals".as_ref(),
-    ]);
-    let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "{stderr}");
+    let (stderr, out, _dir) = render_quad_normals(&[]);
     assert!(stderr.contains(EMBREE), "summary names the backend: {stderr}");
     let png = image::open(&out).unwrap().to_rgb8();
     assert_eq!(png.dimensions(), (64, 64));
