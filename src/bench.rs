@@ -22,7 +22,7 @@ use crate::accel::bvh::Bvh;
 use crate::accel::embree::{EmbreeIntersector, RawRays};
 use crate::accel::{Hit, Intersector, Ray};
 use crate::light::Light;
-use crate::render::surface::SurfacePoint;
+use crate::query::SurfacePoint;
 use crate::sampling::{around, cosine_hemisphere, Rng};
 use crate::scene::{Overrides, Scene};
 

@@ -60,6 +60,14 @@ pub enum Error {
         /// Embree's message.
         message: String,
     },
+    /// A render setting is out of its range (see [`crate::config::RenderConfig::validate`]).
+    #[error("{name} {message}")]
+    Setting {
+        /// The setting, as [`crate::config::RenderConfig`] names it.
+        name: &'static str,
+        /// What is wrong with its value and what is allowed.
+        message: String,
+    },
     /// An image could not be encoded or saved.
     #[error("{}: cannot write image: {message}", path.display())]
     Image {

@@ -1,28 +1,53 @@
 //! caustix: a photon-mapping renderer. Embree finds ray/triangle hits; Rust
-//! does the rest.
+//! does the rest. ARCHITECTURE.md draws the layers; in order, each using
+//! only those before it:
 //!
-//! - [`scene`]: the scene file, meshes, built-in shapes, the teapot, OBJ.
-//! - [`accel`]: the [`accel::Intersector`] trait and the Embree backend (the
-//!   only `unsafe` code, in `accel::embree`).
-//! - [`material`], [`light`], [`optics`]: what surfaces and lights are, and
-//!   the Fresnel/Snell formulas.
+//! - [`accel`]: rays, hits and the [`accel::Intersector`] trait; Embree (the
+//!   only `unsafe` code, in `accel::embree`) and the native BVH.
+//! - [`config`]: [`RenderConfig`], every setting and its limits.
+//! - [`material`], [`light`], [`optics`], [`sampling`]: what surfaces and
+//!   lights are, the Fresnel/Snell formulas, random numbers.
+//! - [`scene`]: the scene file, camera, meshes, built-in shapes, the teapot, OBJ, PLY.
+//! - [`query`]: the first interaction along a ray (surface or light) and ray spawning.
+//! - [`bsdf`]: a material at a surface point: evaluate, sample, pdf; Russian roulette.
 //! - [`photon`]: photon tracing, the global and caustic maps (kiddo kd-trees),
 //!   radiance estimates.
-//! - [`render`]: camera, images, integrators.
+//! - [`integrator`]: the [`integrator::Integrator`] trait, one file per integrator.
+//! - [`film`]: pixels, components (AOVs) and image files.
+//!
+//! Rendering a scene file takes a few calls (see `examples/render.rs`):
+//!
+//! ```no_run
+//! let scene = caustix::Scene::load(std::path::Path::new("scenes/cornell.toml"))?;
+//! let accel = caustix::accel::build(scene.config.backend, &scene.triangle_views())?;
+//! let rendered = caustix::render(&scene, accel.as_ref(), &scene.config, &|_| {})?;
+//! rendered.film.beauty().save(std::path::Path::new("cornell.exr"), 0.0)?;
+//! # Ok::<(), caustix::Error>(())
+//! ```
 
 #![warn(missing_docs)]
+#![deny(unsafe_code)]
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod accel;
+#[cfg(feature = "bench")]
 pub mod bench;
 pub mod bounds;
+pub mod bsdf;
+pub mod config;
 pub mod error;
+pub mod film;
+pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod optics;
 pub mod photon;
-pub mod render;
+pub mod query;
 pub mod sampling;
 pub mod scene;
 
+pub use config::RenderConfig;
 pub use error::{Error, Result};
+pub use film::{Film, Image};
+pub use integrator::{render, Rendered};
+pub use scene::Scene;

@@ -161,6 +161,23 @@ impl Light {
         }
     }
 
+    /// Solid-angle density, seen from `from`, with which
+    /// [`Light::sample_incident`] picks the point `on` of an area light
+    /// (uniformly by area): `d^2 / (A cos_l)`. 0 for point and spot lights,
+    /// and behind the light.
+    pub fn pdf_solid_angle(&self, on: Vec3, from: Vec3) -> f32 {
+        let Light::Area { u, v, .. } = *self else { return 0.0 };
+        let normal = u.cross(v);
+        let area = normal.length();
+        let to = from - on;
+        let d2 = to.length_squared();
+        let cos_l = normal.dot(to) / (area * d2.sqrt());
+        if cos_l <= 0.0 {
+            return 0.0;
+        }
+        d2 / (area * cos_l)
+    }
+
     /// A short description for `caustix info`.
     pub fn describe(&self) -> String {
         let w = self.power();

@@ -7,9 +7,10 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use caustix::accel::Backend;
-use caustix::render::image::Image;
-use caustix::render::{render, Integrator, RenderSettings};
+use caustix::config::IntegratorKind as Integrator;
 use caustix::scene::Scene;
+use caustix::Image;
+use caustix::{render, RenderConfig};
 
 const SIZE: u32 = 32;
 const BLOCK: u32 = 8;
@@ -18,9 +19,9 @@ fn cornell() -> Scene {
     Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml")).unwrap()
 }
 
-fn image(scene: &Scene, settings: &RenderSettings) -> Image {
+fn image(scene: &Scene, settings: &RenderConfig) -> Image {
     let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
-    render(scene, accel.as_ref(), settings, &|_| {}).image("final").unwrap()
+    render(scene, accel.as_ref(), settings, &|_| {}).unwrap().film.beauty()
 }
 
 /// The path-traced reference (1024 spp), rendered once for all tests here.
@@ -28,8 +29,8 @@ fn path_traced(scene: &Scene) -> Image {
     static REFERENCE: OnceLock<Image> = OnceLock::new();
     REFERENCE
         .get_or_init(|| {
-            let settings = RenderSettings { width: SIZE, height: SIZE, ..RenderSettings::from_scene(scene) };
-            image(scene, &RenderSettings { integrator: Integrator::Path, samples: 1024, ..settings })
+            let settings = RenderConfig { width: SIZE, height: SIZE, ..scene.config.clone() };
+            image(scene, &RenderConfig { integrator: Integrator::Path, samples: 1024, ..settings })
         })
         .clone()
 }
@@ -89,14 +90,14 @@ fn block_error(a: &[f32], reference: &[f32]) -> f32 {
 #[test]
 fn photon_mapping_agrees_with_the_path_tracer_and_improves_with_photons() {
     let scene = cornell();
-    let base = RenderSettings { width: SIZE, height: SIZE, ..RenderSettings::from_scene(&scene) };
+    let base = RenderConfig { width: SIZE, height: SIZE, ..scene.config.clone() };
     let reference = path_traced(&scene);
     let reference_blocks = blocks(&reference, &reference);
     let reference_mean = mean(&reference, &reference);
 
     let mut errors = Vec::new();
     for photons in [2_000u32, 20_000, 200_000] {
-        let mut settings = RenderSettings { integrator: Integrator::Photon, samples: 16, ..base.clone() };
+        let mut settings = RenderConfig { integrator: Integrator::Photon, samples: 16, ..base.clone() };
         settings.photons.global_photons = photons;
         settings.photons.caustic_photons = 2 * photons;
         settings.photons.gather_rays = 256;
@@ -130,12 +131,8 @@ fn progressive_photon_mapping_agrees_with_the_path_tracer_and_keeps_improving() 
     let reference = path_traced(&scene);
     let reference_blocks = blocks(&reference, &reference);
     let reference_mean = mean(&reference, &reference);
-    let mut settings = RenderSettings {
-        width: SIZE,
-        height: SIZE,
-        integrator: Integrator::Sppm,
-        ..RenderSettings::from_scene(&scene)
-    };
+    let mut settings =
+        RenderConfig { width: SIZE, height: SIZE, integrator: Integrator::Sppm, ..scene.config.clone() };
     settings.photons.sppm.photons_per_pass = 20_000;
     let mut errors = Vec::new();
     for passes in [16, 64, 256] {

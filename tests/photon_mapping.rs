@@ -9,6 +9,7 @@ use std::path::Path;
 
 use caustix::accel::{Backend, Intersector};
 use caustix::photon::{trace, Estimate, Pass, PhotonMap};
+use caustix::query::SceneQuery;
 use caustix::scene::Scene;
 use glam::Vec3;
 
@@ -27,8 +28,13 @@ fn stored_power_is_the_lights_power_times_the_bounce_series() {
     // absorbed: expected stored power = power * (1 + a + a^2 + ...) = power / (1 - a).
     for albedo in [0.3f32, 0.7] {
         let scene = furnace(albedo);
-        let photons =
-            trace(&scene, accel(&scene).as_ref(), Pass::Global { keep_direct: true }, 200_000, 64, 1);
+        let photons = trace(
+            &SceneQuery::new(&scene, accel(&scene).as_ref()),
+            Pass::Global { keep_direct: true },
+            200_000,
+            64,
+            1,
+        );
         let stored: Vec3 = photons.iter().map(|p| p.power).sum();
         let expected = 100.0 / (1.0 - albedo);
         let error = (stored.x / expected - 1.0).abs();
@@ -39,11 +45,16 @@ fn stored_power_is_the_lights_power_times_the_bounce_series() {
         );
         assert!(error < 0.01, "albedo {albedo}: {} vs {expected}", stored.x);
         // Without the photons straight from the light: power * a / (1 - a).
-        let indirect: f32 =
-            trace(&scene, accel(&scene).as_ref(), Pass::Global { keep_direct: false }, 200_000, 64, 1)
-                .iter()
-                .map(|p| p.power.x)
-                .sum();
+        let indirect: f32 = trace(
+            &SceneQuery::new(&scene, accel(&scene).as_ref()),
+            Pass::Global { keep_direct: false },
+            200_000,
+            64,
+            1,
+        )
+        .iter()
+        .map(|p| p.power.x)
+        .sum();
         assert!((indirect / (100.0 * albedo / (1.0 - albedo)) - 1.0).abs() < 0.01, "{indirect}");
     }
 }
@@ -66,8 +77,7 @@ fn global_map_converges_to_the_exact_indirect_light() {
     let mut errors = Vec::new();
     for photons in [2_000u32, 20_000, 200_000] {
         let map = PhotonMap::new(trace(
-            &scene,
-            accel.as_ref(),
+            &SceneQuery::new(&scene, accel.as_ref()),
             Pass::Global { keep_direct: false },
             photons,
             64,
@@ -135,7 +145,7 @@ fn a_glass_ball_focuses_light_where_geometric_optics_puts_it() {
     let focus = centre + axis * 1.6216;
     let scene = ball_lens(focus.y);
     let accel = accel(&scene);
-    let map = PhotonMap::new(trace(&scene, accel.as_ref(), Pass::Caustic, 400_000, 16, 3));
+    let map = PhotonMap::new(trace(&SceneQuery::new(&scene, accel.as_ref()), Pass::Caustic, 400_000, 16, 3));
     let estimate = Estimate { k: 100, max_radius: 0.05, cone_filter: None };
 
     // Scan the floor along x through the expected focus.
@@ -222,7 +232,13 @@ fn photons_stop_at_the_front_of_an_area_light() {
         material = "white"
     "#;
     let scene = Scene::from_toml(text, Path::new("panel.toml")).unwrap();
-    let photons = trace(&scene, accel(&scene).as_ref(), Pass::Global { keep_direct: true }, 100_000, 1, 5);
+    let photons = trace(
+        &SceneQuery::new(&scene, accel(&scene).as_ref()),
+        Pass::Global { keep_direct: true },
+        100_000,
+        1,
+        5,
+    );
     // The panel's shadow on the ceiling reaches |x|, |z| = 0.25 * 1.0 / 0.9.
     let behind = photons.iter().filter(|p| p.position.x.abs() < 0.27 && p.position.z.abs() < 0.27).count();
     let around = photons.iter().filter(|p| p.position.x.abs() < 0.6 && p.position.z.abs() < 0.6).count();

@@ -6,8 +6,9 @@ mod common;
 use std::path::Path;
 
 use caustix::accel::embree::EmbreeIntersector;
-use caustix::render::{render, Integrator, RenderSettings};
+use caustix::config::IntegratorKind as Integrator;
 use caustix::scene::Scene;
+use caustix::{render, RenderConfig};
 use common::{caustix, write, QUAD_SCENE};
 use glam::Vec3;
 
@@ -20,14 +21,14 @@ fn on_quad(x: u32, y: u32) -> bool {
 }
 
 /// The quad scene rendered with `integrator`.
-fn preview(integrator: Integrator) -> (Scene, caustix::render::image::Image) {
+fn preview(integrator: Integrator) -> (Scene, caustix::Image) {
     let scene = Scene::from_toml(QUAD_SCENE, Path::new("quad.toml")).unwrap();
     let accel = EmbreeIntersector::build(&scene.triangle_views()).unwrap();
-    let settings = RenderSettings { integrator, ..RenderSettings::from_scene(&scene) };
-    let rendered = render(&scene, &accel, &settings, &|_| {});
-    assert_eq!(rendered.stats.rays, 64 * 64);
+    let settings = RenderConfig { integrator, ..scene.config.clone() };
+    let rendered = render(&scene, &accel, &settings, &|_| {}).unwrap();
+    assert_eq!(rendered.stats.rays.closest, 64 * 64);
     drop(accel);
-    (scene, rendered.image("final").unwrap())
+    (scene, rendered.film.beauty())
 }
 
 #[test]

@@ -7,8 +7,9 @@ mod common;
 use std::f32::consts::PI;
 
 use caustix::accel::Backend;
-use caustix::render::{render, Integrator, RenderSettings, Rendered};
+use caustix::config::IntegratorKind as Integrator;
 use caustix::scene::Scene;
+use caustix::{render, RenderConfig, Rendered};
 
 /// The furnace of `common::furnace`, seen at 16 x 16 by progressive
 /// photon mapping with 20,000 photons per pass.
@@ -27,10 +28,10 @@ fn furnace(albedo: f32) -> Scene {
 }
 
 fn sppm(scene: &Scene, passes: u32) -> Rendered {
-    let mut settings = RenderSettings { integrator: Integrator::Sppm, ..RenderSettings::from_scene(scene) };
+    let mut settings = RenderConfig { integrator: Integrator::Sppm, ..scene.config.clone() };
     settings.photons.sppm.passes = passes;
     let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
-    render(scene, accel.as_ref(), &settings, &|_| {})
+    render(scene, accel.as_ref(), &settings, &|_| {}).unwrap()
 }
 
 /// Measured: mean per-pixel error of the indirect light 3.66%, 1.92%, 1.30%
@@ -42,7 +43,7 @@ fn indirect_light_converges_to_the_exact_answer() {
     let exact = albedo / PI * 100.0 * albedo / ((1.0 - albedo) * common::mesh_area(&scene));
     let (mut errors, mut means) = (Vec::new(), Vec::new());
     for passes in [4, 16, 64] {
-        let global = sppm(&scene, passes).image("global").unwrap();
+        let global = sppm(&scene, passes).film.image("global").unwrap();
         let n = global.pixels.len() as f32;
         let mean = global.pixels.iter().map(|p| p.x).sum::<f32>() / n;
         let error = global.pixels.iter().map(|p| (p.x / exact - 1.0).abs()).sum::<f32>() / n;
@@ -69,7 +70,7 @@ fn the_image_does_not_depend_on_the_thread_count() {
     let scene = furnace(0.5);
     let with = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| sppm(&scene, 3)).pixels
+        pool.install(|| sppm(&scene, 3)).film.pixels
     };
     let one = with(1);
     assert!(one.iter().any(|c| c.global.x > 0.0), "photons must reach the pixels");
@@ -99,6 +100,6 @@ fn cli_renders_progressively_and_says_what_it_did() {
     assert!(stderr.contains("3000 emitted in 3 passes of 1000"), "{stderr}");
     assert!(stderr.contains("Sppm, 3 spp"), "{stderr}");
     // The quad is lit directly: the centre pixel is bright, the corner black.
-    let image = caustix::render::image::Image::load(&out).unwrap();
+    let image = caustix::Image::load(&out).unwrap();
     assert!(image.get(32, 32).x > 0.0 && image.get(0, 0) == glam::Vec3::ZERO);
 }

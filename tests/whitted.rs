@@ -8,8 +8,9 @@ use std::path::Path;
 
 use caustix::accel::embree::EmbreeIntersector;
 use caustix::accel::{Backend, Intersector};
-use caustix::render::{render, Integrator, RenderSettings, Rendered};
+use caustix::config::IntegratorKind as Integrator;
 use caustix::scene::Scene;
+use caustix::{render, RenderConfig, Rendered};
 use common::{caustix, write, QUAD_SCENE};
 use glam::Vec3;
 
@@ -21,9 +22,8 @@ fn backends(scene: &Scene) -> Vec<Box<dyn Intersector + '_>> {
 }
 
 fn whitted(scene: &Scene, accel: &dyn Intersector, samples: u32) -> Rendered {
-    let settings =
-        RenderSettings { integrator: Integrator::Whitted, samples, ..RenderSettings::from_scene(scene) };
-    render(scene, accel, &settings, &|_| {})
+    let settings = RenderConfig { integrator: Integrator::Whitted, samples, ..scene.config.clone() };
+    render(scene, accel, &settings, &|_| {}).unwrap()
 }
 
 #[test]
@@ -34,7 +34,7 @@ fn diffuse_quad_under_a_point_light_has_the_analytic_radiance() {
     // cos = 4 / d, and the radiance towards the camera is 0.8 / pi * E.
     let scene = Scene::from_toml(QUAD_SCENE, Path::new("quad.toml")).unwrap();
     for accel in backends(&scene) {
-        let image = whitted(&scene, accel.as_ref(), 1).image("final").unwrap();
+        let image = whitted(&scene, accel.as_ref(), 1).film.beauty();
         let mut checked = 0;
         for y in 0..64 {
             for x in 0..64 {
@@ -66,20 +66,20 @@ fn same_image_bit_for_bit_with_one_thread_and_with_many() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
     let scene = Scene::load(&path).unwrap();
     let accel = EmbreeIntersector::build(&scene.triangle_views()).unwrap();
-    let mut settings = RenderSettings {
+    let mut settings = RenderConfig {
         width: 48,
         height: 40,
         samples: 4,
         light_samples: 2,
         integrator: Integrator::Photon,
-        ..RenderSettings::from_scene(&scene)
+        ..scene.config.clone()
     };
     // Photon mapping too: the maps must not depend on the thread count either.
     settings.photons.global_photons = 20_000;
     settings.photons.caustic_photons = 20_000;
     let with = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| render(&scene, &accel, &settings, &|_| {})).pixels
+        pool.install(|| render(&scene, &accel, &settings, &|_| {})).unwrap().film.pixels
     };
     let one = with(1);
     assert!(one.iter().any(|c| c.direct != Vec3::ZERO) && one.iter().any(|c| c.specular != Vec3::ZERO));
@@ -132,7 +132,7 @@ fn a_mirror_shows_what_it_faces_times_its_reflectance() {
                 let to_light = Vec3::new(0.0, 0.0, 3.0) - p_wall;
                 let d = to_light.length();
                 let wall = 0.8 / PI * 100.0 / (4.0 * PI) * (-to_light.z / d) / (d * d);
-                let c = rendered.pixels[(y * 8 + x) as usize];
+                let c = rendered.film.pixels[(y * 8 + x) as usize];
                 assert_eq!(c.direct, Vec3::ZERO, "a pure mirror has no direct part");
                 assert!(
                     (c.specular.x - 0.6 * wall).abs() < 1e-4 * wall,
@@ -149,22 +149,21 @@ fn a_mirror_shows_what_it_faces_times_its_reflectance() {
 fn both_backends_render_the_cornell_box_alike() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
     let scene = Scene::load(&path).unwrap();
-    let settings = RenderSettings {
+    let settings = RenderConfig {
         width: 64,
         height: 64,
         samples: 4,
         integrator: Integrator::Whitted,
-        ..RenderSettings::from_scene(&scene)
+        ..scene.config.clone()
     };
     let [a, b] = [Backend::Embree, Backend::Native].map(|backend| {
         let accel = caustix::accel::build(backend, &scene.triangle_views()).unwrap();
-        render(&scene, accel.as_ref(), &settings, &|_| {}).image("final").unwrap()
+        render(&scene, accel.as_ref(), &settings, &|_| {}).unwrap().film.beauty()
     });
     // Same random streams, so only ties on edges can make pixels differ.
     let differing =
         a.pixels.iter().zip(&b.pixels).filter(|(p, q)| (**p - **q).abs().max_element() > 1e-4).count();
-    let mean =
-        |img: &caustix::render::image::Image| img.pixels.iter().sum::<Vec3>() / img.pixels.len() as f32;
+    let mean = |img: &caustix::Image| img.pixels.iter().sum::<Vec3>() / img.pixels.len() as f32;
     eprintln!("pixels differing: {differing} of {}", a.pixels.len());
     assert!(differing * 100 <= a.pixels.len(), "{differing} pixels differ");
     assert!((mean(&a) - mean(&b)).abs().max_element() < 1e-3 * mean(&a).max_element());
@@ -176,17 +175,15 @@ fn both_backends_photon_map_the_cornell_box_alike() {
     // must agree on average.
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
     let scene = Scene::load(&path).unwrap();
-    let mut settings =
-        RenderSettings { width: 48, height: 48, samples: 2, ..RenderSettings::from_scene(&scene) };
+    let mut settings = RenderConfig { width: 48, height: 48, samples: 2, ..scene.config.clone() };
     settings.integrator = Integrator::Photon;
     settings.photons.global_photons = 50_000;
     settings.photons.caustic_photons = 50_000;
     let [a, b] = [Backend::Embree, Backend::Native].map(|backend| {
         let accel = caustix::accel::build(backend, &scene.triangle_views()).unwrap();
-        render(&scene, accel.as_ref(), &settings, &|_| {}).image("final").unwrap()
+        render(&scene, accel.as_ref(), &settings, &|_| {}).unwrap().film.beauty()
     });
-    let mean =
-        |img: &caustix::render::image::Image| img.pixels.iter().sum::<Vec3>() / img.pixels.len() as f32;
+    let mean = |img: &caustix::Image| img.pixels.iter().sum::<Vec3>() / img.pixels.len() as f32;
     let (ma, mb) = (mean(&a), mean(&b));
     eprintln!("mean radiance: embree {ma}, native {mb}");
     assert!((ma - mb).abs().max_element() < 0.01 * ma.max_element(), "{ma} vs {mb}");
@@ -209,7 +206,7 @@ fn cli_writes_each_requested_component() {
     ]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
-    let load = |name: &str| caustix::render::image::Image::load(&dir.path().join(name)).unwrap();
+    let load = |name: &str| caustix::Image::load(&dir.path().join(name)).unwrap();
     let (total, direct, specular) = (load("quad.exr"), load("quad-direct.exr"), load("quad-specular.exr"));
     assert!(specular.pixels.iter().all(|p| *p == Vec3::ZERO), "nothing specular in a diffuse scene");
     assert_eq!(total, direct);

@@ -14,7 +14,7 @@ use crate::error::Result;
 use embree::TriangleView;
 
 /// Which intersector answers ray queries.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
     /// Intel Embree, as the system provides it (the default).
@@ -24,7 +24,7 @@ pub enum Backend {
 }
 
 /// How Embree lays out its BVH: memory against speed. The native BVH has one layout.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum BvhLayout {
     /// Leaves hold copies of their triangles' vertices: the fastest rays
@@ -39,7 +39,39 @@ pub enum BvhLayout {
     Auto,
 }
 
+impl Backend {
+    /// Every backend, by its name in scene files and on the command line.
+    pub const NAMES: [(&'static str, Backend); 2] =
+        [("embree", Backend::Embree), ("native", Backend::Native)];
+}
+
+impl std::str::FromStr for Backend {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        named(&Self::NAMES, s)
+    }
+}
+
+impl std::str::FromStr for BvhLayout {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        named(&Self::NAMES, s)
+    }
+}
+
+/// The value called `name` among `names`, or an error listing them.
+fn named<T: Copy>(names: &[(&'static str, T)], name: &str) -> std::result::Result<T, String> {
+    names.iter().find(|(n, _)| *n == name).map(|(_, v)| *v).ok_or_else(|| {
+        let all: Vec<&str> = names.iter().map(|(n, _)| *n).collect();
+        format!("unknown value `{name}`; choose from {}", all.join(", "))
+    })
+}
+
 impl BvhLayout {
+    /// Every layout, by its name in scene files and on the command line.
+    pub const NAMES: [(&'static str, BvhLayout); 3] =
+        [("fast", BvhLayout::Fast), ("compact", BvhLayout::Compact), ("auto", BvhLayout::Auto)];
+
     /// Bytes per triangle Embree's fast layout needs at its peak while
     /// building: BVH plus build scratch, measured at 10M triangles
     /// (BENCHMARKS.md, 625 + 315 MiB), rounded up.

@@ -17,9 +17,10 @@ use std::time::Instant;
 
 use super::plot::{log_log, Series};
 use crate::accel::Intersector;
-use crate::render::image::{Difference, Image};
-use crate::render::sppm::Progressive;
-use crate::render::{render, Integrator, RenderSettings, Rendered};
+use crate::config::{IntegratorKind as Integrator, RenderConfig};
+use crate::film::image::{Difference, Image};
+use crate::integrator::sppm::Progressive;
+use crate::integrator::{render, Context, Rendered};
 use crate::scene::Scene;
 
 /// One timed render and its error against the reference.
@@ -38,9 +39,9 @@ pub struct ErrorPoint {
 }
 
 /// The settings `integrator` uses at budget `level` of `levels`.
-pub fn budget(base: &RenderSettings, integrator: Integrator, level: u32, levels: u32) -> RenderSettings {
+pub fn budget(base: &RenderConfig, integrator: Integrator, level: u32, levels: u32) -> RenderConfig {
     let m = 1u32 << level;
-    let mut s = RenderSettings { integrator, ..base.clone() };
+    let mut s = RenderConfig { integrator, ..base.clone() };
     match integrator {
         Integrator::Path => s.samples = 16 * m,
         Integrator::Photon => {
@@ -57,7 +58,7 @@ pub fn budget(base: &RenderSettings, integrator: Integrator, level: u32, levels:
 }
 
 /// What [`budget`] means, in words.
-fn describe(s: &RenderSettings) -> String {
+fn describe(s: &RenderConfig) -> String {
     let p = &s.photons;
     match s.integrator {
         Integrator::Path => format!("{} spp", s.samples),
@@ -76,16 +77,15 @@ fn describe(s: &RenderSettings) -> String {
 pub fn measure(
     scene: &Scene,
     accel: &dyn Intersector,
-    base: &RenderSettings,
+    base: &RenderConfig,
     reference: &Image,
     integrators: &[Integrator],
     levels: u32,
     report: &mut dyn FnMut(&ErrorPoint),
-) -> Vec<ErrorPoint> {
-    let base = RenderSettings { width: reference.width, height: reference.height, ..base.clone() };
+) -> crate::Result<Vec<ErrorPoint>> {
+    let base = RenderConfig { width: reference.width, height: reference.height, ..base.clone() };
     let compare = |rendered: &Rendered| {
-        let image = rendered.image("final").expect("final is a component");
-        image.difference(reference).expect("rendered at the reference's size")
+        rendered.film.beauty().difference(reference).expect("rendered at the reference's size")
     };
     let mut points = Vec::new();
     let mut push = |point: ErrorPoint| {
@@ -96,8 +96,9 @@ pub fn measure(
         if integrator == Integrator::Sppm {
             // One progressive run, read at each level's pass count.
             let last = budget(&base, integrator, levels - 1, levels);
+            last.validate()?;
             let start = Instant::now();
-            let mut run = Progressive::new(scene, accel, &last);
+            let mut run = Progressive::new(&Context::new(scene, accel, &last));
             for level in 0..levels {
                 let settings = budget(&base, integrator, level, levels);
                 while run.passes() < settings.photons.sppm.passes {
@@ -112,18 +113,18 @@ pub fn measure(
         }
         for level in 0..levels {
             let settings = budget(&base, integrator, level, levels);
-            let rendered = render(scene, accel, &settings, &|_| {});
+            let rendered = render(scene, accel, &settings, &|_| {})?;
             let seconds = rendered.stats.elapsed.as_secs_f64();
             let error = compare(&rendered);
             push(ErrorPoint { integrator, level, setting: describe(&settings), seconds, error });
         }
     }
-    points
+    Ok(points)
 }
 
 /// Lower-case name of an integrator, as on the command line.
 pub fn name(integrator: Integrator) -> String {
-    format!("{integrator:?}").to_lowercase()
+    integrator.name().to_string()
 }
 
 /// The points as CSV, one row each, with a header.

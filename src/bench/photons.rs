@@ -64,7 +64,8 @@ pub fn measure(
     let mut rows = Vec::new();
     for (i, &emitted) in counts.iter().enumerate() {
         let start = Instant::now();
-        let photons = trace(scene, accel, Pass::Global { keep_direct: true }, emitted, 16, 0);
+        let query = crate::query::SceneQuery::new(scene, accel);
+        let photons = trace(&query, Pass::Global { keep_direct: true }, emitted, 16, 0);
         let trace_seconds = start.elapsed().as_secs_f64();
         let stored = photons.len();
         let step = (stored / queries.max(1)).max(1);

@@ -13,7 +13,8 @@ use super::{peak_resident_bytes, reset_peak_resident, resident_bytes, RaySets};
 use crate::accel::bvh::Bvh;
 use crate::accel::embree::EmbreeIntersector;
 use crate::accel::{BvhLayout, Intersector, Ray};
-use crate::render::{render, RenderSettings};
+use crate::config::RenderConfig;
+use crate::integrator::render;
 use crate::scene::{Overrides, Scene};
 
 /// What one mesh size cost.
@@ -76,10 +77,10 @@ pub fn measure(
         let sets = RaySets::new(&scene, &embree, rays_side, rays_side);
         let embree_mrays = diffuse_mrays(&embree, &sets.diffuse);
 
-        let mut settings = RenderSettings::from_scene(&scene);
-        (settings.width, settings.height) = render_size;
+        let (width, height) = render_size;
+        let settings = RenderConfig { width, height, ..scene.config.clone() };
         let start = Instant::now();
-        render(&scene, &embree, &settings, &|_| {});
+        render(&scene, &embree, &settings, &|_| {})?;
         let render_seconds = start.elapsed().as_secs_f64();
         drop(embree);
 

@@ -8,8 +8,9 @@ use std::time::Instant;
 
 use crate::accel::bvh::Bvh;
 use crate::accel::embree::EmbreeIntersector;
+use crate::config::RenderConfig;
+use crate::integrator::render;
 use crate::photon::build_maps;
-use crate::render::{render, RenderSettings};
 use crate::scene::Scene;
 
 /// What one thread count took.
@@ -32,7 +33,7 @@ pub struct ThreadRow {
 /// Measures `scene` rendered with `settings` on each of `thread_counts`.
 pub fn measure(
     scene: &Scene,
-    settings: &RenderSettings,
+    settings: &RenderConfig,
     thread_counts: &[usize],
     report: &mut dyn FnMut(&ThreadRow),
 ) -> anyhow::Result<Vec<ThreadRow>> {
@@ -49,18 +50,15 @@ pub fn measure(
             drop(Bvh::build(&views));
             let native_build = start.elapsed().as_secs_f64();
             let start = Instant::now();
-            drop(build_maps(scene, &embree, &settings.photons));
+            let query = crate::query::SceneQuery::new(scene, &embree);
+            let b = scene.bounds();
+            drop(build_maps(&query, &settings.photons, settings.seed, (b.max - b.min).length()));
             let photons = start.elapsed().as_secs_f64();
             let start = Instant::now();
-            let rendered = render(scene, &embree, settings, &|_| {});
+            let rendered = render(scene, &embree, settings, &|_| {})?;
             let render_seconds = start.elapsed().as_secs_f64();
-            let image: Vec<[u32; 3]> = rendered
-                .image("final")
-                .expect("final is a component")
-                .pixels
-                .iter()
-                .map(|p| p.to_array().map(f32::to_bits))
-                .collect();
+            let image: Vec<[u32; 3]> =
+                rendered.film.beauty().pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect();
             let same_image = first_image.get_or_insert_with(|| image.clone()) == &image;
             Ok(ThreadRow { threads, embree_build, native_build, photons, render: render_seconds, same_image })
         })?;

@@ -7,6 +7,7 @@ use std::num::NonZero;
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
+pub use crate::config::Estimate;
 use crate::material::Material;
 
 /// One stored photon: where it landed, where it came from, what it carries.
@@ -31,18 +32,6 @@ impl Photon {
     pub fn lights_surface(&self, n: Vec3) -> bool {
         self.incoming.dot(n) > 0.0 && self.normal.dot(n) >= 0.9
     }
-}
-
-/// How a radiance estimate gathers photons.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Estimate {
-    /// Photons used at most (the k nearest).
-    pub k: usize,
-    /// Largest search radius.
-    pub max_radius: f32,
-    /// Cone filter constant `k_c >= 1` (Jensen): photons are weighted by
-    /// `1 - d / (k_c r)`, sharpening caustics. `None`: no filter.
-    pub cone_filter: Option<f32>,
 }
 
 /// Photons in a kd-tree, ready for nearest-neighbour queries.

@@ -21,33 +21,12 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::accel::{Intersector, Ray};
-use crate::light::nearest_emitter;
-use crate::render::surface::SurfacePoint;
+use crate::accel::Ray;
+use crate::config::PhotonConfig;
+use crate::query::{Interaction, RayCount, SceneQuery};
 use crate::sampling::{around, cosine_hemisphere, phong_lobe, Rng};
 use crate::scene::Scene;
 pub use map::{Estimate, Photon, PhotonMap};
-
-/// How many photons, and how the maps are read.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PhotonSettings {
-    /// Photons emitted for the global map.
-    pub global_photons: u32,
-    /// Photons emitted for the caustic map.
-    pub caustic_photons: u32,
-    /// Radiance estimate on the global map.
-    pub global_estimate: Estimate,
-    /// Radiance estimate on the caustic map.
-    pub caustic_estimate: Estimate,
-    /// Final-gathering rays per shading point; 0 shows the global map directly.
-    pub gather_rays: u32,
-    /// Most bounces a photon makes.
-    pub max_bounces: u32,
-    /// Seed of the photons' random streams.
-    pub seed: u64,
-    /// Progressive photon mapping (for [`crate::render::Integrator::Sppm`]).
-    pub sppm: crate::render::sppm::SppmSettings,
-}
 
 /// What was built, skipped and how long it took.
 #[derive(Debug, Clone, Default)]
@@ -93,7 +72,10 @@ pub enum Pass {
 
 /// Traces and stores the maps the scene needs, skipping the ones it does
 /// not (and saying so in the stats).
-pub fn build_maps(scene: &Scene, accel: &dyn Intersector, settings: &PhotonSettings) -> PhotonMaps {
+/// `seed` chooses the photons' random streams; default radii are fractions
+/// of the scene's bounding-box `diagonal`.
+pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagonal: f32) -> PhotonMaps {
+    let scene = query.scene;
     let mut stats = PhotonStats::default();
     let has_specular = scene.meshes.iter().any(|m| scene.materials[m.material].is_specular());
     let has_diffuse = scene.meshes.iter().any(|m| scene.materials[m.material].is_glossy_or_diffuse());
@@ -102,7 +84,7 @@ pub fn build_maps(scene: &Scene, accel: &dyn Intersector, settings: &PhotonSetti
 
     let run = |pass: Pass, count: u32, stats: &mut PhotonStats| {
         let start = Instant::now();
-        let photons = trace(scene, accel, pass, count, settings.max_bounces, settings.seed);
+        let photons = trace(query, pass, count, settings.max_bounces, seed);
         stats.trace_seconds += start.elapsed().as_secs_f64();
         let start = Instant::now();
         let map = PhotonMap::new(photons);
@@ -125,7 +107,7 @@ pub fn build_maps(scene: &Scene, accel: &dyn Intersector, settings: &PhotonSetti
         if for_gathering {
             // Gather rays only need irradiance: estimate it once per 4 photons.
             let start = Instant::now();
-            map.precompute_irradiance(4, &settings.global_estimate);
+            map.precompute_irradiance(4, &settings.global_estimate(diagonal));
             stats.build_seconds += start.elapsed().as_secs_f64();
         }
         Some(map)
@@ -232,18 +214,10 @@ pub struct Arrival {
 /// with cones): photons that could only land on diffuse surfaces directly
 /// would be thrown away anyway. Each carries `intensity / pdf / n`, so the
 /// estimate is unchanged, with far more photons where caustics form.
-pub fn trace(
-    scene: &Scene,
-    accel: &dyn Intersector,
-    pass: Pass,
-    count: u32,
-    max_bounces: u32,
-    seed: u64,
-) -> Vec<Photon> {
+pub fn trace(query: &SceneQuery, pass: Pass, count: u32, max_bounces: u32, seed: u64) -> Vec<Photon> {
     let stream_seed = seed ^ if pass == Pass::Caustic { 0xC0FFEE } else { 0x61_0BA1 };
     let chunks = emit(
-        scene,
-        accel,
+        query,
         count,
         max_bounces,
         stream_seed,
@@ -279,8 +253,7 @@ const CHUNK: u64 = 4096;
 /// and glass meshes (see [`trace`]).
 #[allow(clippy::too_many_arguments)]
 pub fn emit<T: Send>(
-    scene: &Scene,
-    accel: &dyn Intersector,
+    query: &SceneQuery,
     count: u32,
     max_bounces: u32,
     stream_seed: u64,
@@ -288,6 +261,7 @@ pub fn emit<T: Send>(
     start: impl Fn() -> T + Sync,
     arrive: impl Fn(&mut T, &Arrival) -> bool + Sync,
 ) -> Vec<T> {
+    let scene = query.scene;
     // Photons per light, in proportion to power; each carries power / its count.
     let weights: Vec<f32> = scene.lights.iter().map(|l| l.power().element_sum()).collect();
     let total: f32 = weights.iter().sum();
@@ -336,7 +310,7 @@ pub fn emit<T: Send>(
                     None => scene.lights[light].emit(rng.uniform2(), rng.uniform2()),
                 };
                 let power = power / per_light[light] as f32;
-                trace_photon(scene, accel, ray, power, max_bounces, &mut rng, &mut |a| arrive(&mut state, a));
+                trace_photon(query, ray, power, max_bounces, &mut rng, &mut |a| arrive(&mut state, a));
             }
             state
         })
@@ -347,8 +321,7 @@ pub fn emit<T: Send>(
 /// surface until `arrive` says stop, the photon is absorbed, or it has made
 /// `max_bounces` bounces.
 fn trace_photon(
-    scene: &Scene,
-    accel: &dyn Intersector,
+    query: &SceneQuery,
     mut ray: Ray,
     mut power: Vec3,
     max_bounces: u32,
@@ -356,13 +329,11 @@ fn trace_photon(
     arrive: &mut dyn FnMut(&Arrival) -> bool,
 ) {
     let (mut diffuse_bounces, mut specular_bounces) = (0u32, 0u32);
+    let mut count = RayCount::default(); // photon rays are not reported
     for _ in 0..max_bounces {
-        let Some(hit) = accel.intersect(&ray) else { return };
-        if nearest_emitter(&scene.lights, &Ray { t_max: hit.t, ..ray }).is_some() {
-            return; // absorbed by the front of an area light, as camera paths see it
-        }
-        let sp = SurfacePoint::new(scene, &ray, &hit);
-        let m = &scene.materials[sp.material];
+        // The front of an area light absorbs photons, as camera paths see it.
+        let Some(Interaction::Surface(sp)) = query.first(&ray, &mut count) else { return };
+        let m = query.material(&sp);
         let dir = ray.dir.normalize();
 
         if m.is_glossy_or_diffuse() {
@@ -422,7 +393,7 @@ fn trace_photon(
             _ => {
                 specular_bounces += 1;
                 power *= parts[3] / probability;
-                sp.dielectric_direction(dir, m.ior, rng)
+                crate::bsdf::Bsdf::new(m, &sp, dir).dielectric(Vec3::ONE, rng).wi
             }
         };
         if new_dir.dot(sp.ng) == 0.0 {

@@ -10,16 +10,8 @@ use toml::Spanned;
 
 use super::values::{whole_number, Finite, Point, Positive, Power, Reflectance, Scale, Size};
 
-/// Largest image side we accept (a typo like 100000 would exhaust memory).
-pub const MAX_IMAGE_SIDE: u32 = 16384;
-/// Most samples per pixel we accept.
-pub const MAX_SAMPLES: u32 = 1 << 16;
-/// Longest ray chain we accept.
-pub const MAX_DEPTH: u32 = 64;
-/// Finest tessellation we accept (sphere: 20 * 4^9 = 5.2M triangles).
-pub const MAX_SPHERE_SUBDIVISIONS: u32 = 9;
-/// Finest teapot tessellation (32 * 2 * 1024^2 = 67M triangles).
-pub const MAX_TEAPOT_LEVEL: u32 = 1024;
+use crate::config::limits::*;
+use crate::config::PhotonConfig;
 
 /// The whole file.
 #[derive(Debug, Deserialize)]
@@ -87,12 +79,13 @@ pub struct ImageSection {
 
 impl Default for ImageSection {
     fn default() -> Self {
-        ImageSection { width: 640, height: 480, samples: default_samples() }
+        let config = crate::config::RenderConfig::default();
+        ImageSection { width: config.width, height: config.height, samples: config.samples }
     }
 }
 
 fn default_samples() -> u32 {
-    4
+    crate::config::RenderConfig::default().samples
 }
 
 fn image_side<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
@@ -107,7 +100,7 @@ fn samples<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 #[serde(deny_unknown_fields)]
 pub struct RenderSection {
     #[serde(default = "default_integrator")]
-    pub integrator: crate::render::Integrator,
+    pub integrator: crate::config::IntegratorKind,
     #[serde(default = "default_backend")]
     pub backend: crate::accel::Backend,
     #[serde(default)]
@@ -133,8 +126,8 @@ impl Default for RenderSection {
     }
 }
 
-fn default_integrator() -> crate::render::Integrator {
-    crate::render::Integrator::Photon
+fn default_integrator() -> crate::config::IntegratorKind {
+    crate::config::IntegratorKind::default()
 }
 
 fn default_backend() -> crate::accel::Backend {
@@ -142,7 +135,7 @@ fn default_backend() -> crate::accel::Backend {
 }
 
 fn default_max_depth() -> u32 {
-    10
+    crate::config::RenderConfig::default().max_depth
 }
 
 fn max_depth<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
@@ -150,15 +143,12 @@ fn max_depth<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 }
 
 fn default_light_samples() -> u32 {
-    4
+    crate::config::RenderConfig::default().light_samples
 }
 
 fn light_samples<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     whole_number(d, 1, MAX_SAMPLES)
 }
-
-/// Most photons a map may be asked for.
-pub const MAX_PHOTONS: u32 = 100_000_000;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -225,46 +215,43 @@ impl Default for PhotonSection {
 }
 
 fn default_global_photons() -> u32 {
-    100_000
+    PhotonConfig::default().global_photons
 }
 
 fn default_caustic_photons() -> u32 {
-    200_000
+    PhotonConfig::default().caustic_photons
 }
 
 fn default_global_k() -> u32 {
-    100
+    PhotonConfig::default().global_k
 }
 
 fn default_caustic_k() -> u32 {
-    60
+    PhotonConfig::default().caustic_k
 }
 
 fn default_cone_filter() -> Spanned<Finite> {
-    Spanned::new(0..0, Finite(1.1))
+    Spanned::new(0..0, Finite(PhotonConfig::default().cone_filter.unwrap_or(0.0)))
 }
 
 fn default_gather_rays() -> u32 {
-    64
+    PhotonConfig::default().gather_rays
 }
 
 fn default_photon_bounces() -> u32 {
-    16
+    PhotonConfig::default().max_bounces
 }
 
-/// Most passes progressive photon mapping may be asked for.
-pub const MAX_PASSES: u32 = 1_000_000;
-
 fn default_passes() -> u32 {
-    64
+    PhotonConfig::default().sppm.passes
 }
 
 fn default_pass_photons() -> u32 {
-    100_000
+    PhotonConfig::default().sppm.photons_per_pass
 }
 
 fn default_sppm_alpha() -> Spanned<Finite> {
-    Spanned::new(0..0, Finite(0.7))
+    Spanned::new(0..0, Finite(PhotonConfig::default().sppm.alpha))
 }
 
 fn passes<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
@@ -280,7 +267,7 @@ fn photon_count<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error>
 }
 
 fn neighbours<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    whole_number(d, 1, 100_000)
+    whole_number(d, 1, MAX_NEIGHBOURS)
 }
 
 fn gather_rays<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {

@@ -2,14 +2,8 @@
 //! camera, with every user mistake reported as an [`Error`] that names the
 //! file and line.
 
+pub mod camera;
 mod file;
-/// Bounds on the numbers a scene file (or the command line) may set.
-pub mod limits {
-    pub use super::file::{
-        MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PASSES, MAX_PHOTONS, MAX_SAMPLES, MAX_SPHERE_SUBDIVISIONS,
-        MAX_TEAPOT_LEVEL,
-    };
-}
 pub mod mesh;
 pub mod obj;
 pub mod ply;
@@ -25,39 +19,12 @@ use glam::{EulerRot, Mat4, Quat, Vec3};
 use toml::Spanned;
 
 use crate::accel::embree::TriangleView;
+use crate::config::{PhotonConfig, RenderConfig, SppmConfig};
 use crate::error::{Error, Location, Result};
 use crate::light::Light;
 use crate::material::Material;
-use crate::render::camera::Camera;
+pub use camera::Camera;
 pub use mesh::{Bounds, Mesh};
-
-/// Image size and sampling, as the scene file sets them.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ImageSettings {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// Samples per pixel.
-    pub samples: u32,
-}
-
-/// How the scene file asks to be rendered (the `[render]` table).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RenderOptions {
-    /// The integrator.
-    pub integrator: crate::render::Integrator,
-    /// The intersector.
-    pub backend: crate::accel::Backend,
-    /// Embree's BVH layout.
-    pub bvh: crate::accel::BvhLayout,
-    /// Longest chain of rays from the camera.
-    pub max_depth: u32,
-    /// Shadow-ray samples per area light at each shading point.
-    pub light_samples: u32,
-    /// Ambient radiance (the seed's classic look; zero by default).
-    pub ambient: Vec3,
-}
 
 /// Everything needed to render: geometry, materials, lights, camera.
 #[derive(Debug, Clone)]
@@ -66,12 +33,9 @@ pub struct Scene {
     pub path: PathBuf,
     /// The camera.
     pub camera: Camera,
-    /// Image settings.
-    pub image: ImageSettings,
-    /// Render settings.
-    pub render: RenderOptions,
-    /// Photon counts and estimates.
-    pub photons: crate::photon::PhotonSettings,
+    /// How the file asks to be rendered: its `[image]`, `[render]` and
+    /// `[photons]` tables over [`RenderConfig::default`].
+    pub config: RenderConfig,
     /// Materials; meshes refer to them by index.
     pub materials: Vec<Material>,
     /// Light sources.
@@ -154,6 +118,9 @@ pub struct Overrides {
     pub teapot_subdivisions: Option<u32>,
 }
 
+/// Finds a material's index by its name in the file (an error names the known ones).
+type MaterialLookup<'a> = dyn Fn(&Spanned<String>) -> Result<usize> + 'a;
+
 /// Turns a parsed file into a [`Scene`], keeping the text for error locations.
 struct Builder<'a> {
     text: &'a str,
@@ -168,19 +135,112 @@ impl Builder<'_> {
     }
 
     fn build(mut self, f: file::SceneFile) -> Result<Scene> {
-        let cam = f.camera;
+        let cam = &f.camera;
         let camera = Camera::new(cam.eye.0, cam.look_at.0, cam.up.0, cam.fov.0)
             .map_err(|msg| Error::input(self.path, format!("[camera]: {msg}")))?;
-        let render = RenderOptions {
-            integrator: f.render.integrator,
-            backend: f.render.backend,
-            bvh: f.render.bvh,
-            max_depth: f.render.max_depth,
-            light_samples: f.render.light_samples,
-            ambient: f.render.ambient.map_or(Vec3::ZERO, |a| a.0),
+        let (mut materials, material_ids) = self.materials(&f)?;
+        let lights = self.lights(&f)?;
+        let lookup = |name: &Spanned<String>| -> Result<usize> {
+            material_ids.get(name.get_ref()).copied().ok_or_else(|| {
+                let known: Vec<&str> = f.materials.keys().map(String::as_str).collect();
+                let hint = if known.is_empty() {
+                    "the file defines no materials; add a [materials.NAME] table".to_string()
+                } else {
+                    format!("defined materials: {}", known.join(", "))
+                };
+                self.error_at(name.span(), format!("unknown material `{}`; {hint}", name.get_ref()))
+            })
         };
-        let image = ImageSettings { width: f.image.width, height: f.image.height, samples: f.image.samples };
+        let mut meshes = self.shapes(&f, &lookup)?;
+        let mesh_warnings = self.mesh_files(&f, &lookup, &mut meshes, &mut materials)?;
+        self.warnings.extend(mesh_warnings);
 
+        let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
+        if triangles == 0 {
+            return Err(Error::input(
+                self.path,
+                "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[ring]], [[teapot]] or [[mesh]]",
+            ));
+        }
+        if let Some(m) = meshes.iter().find(|m| !m.positions.iter().all(|p| p.is_finite())) {
+            return Err(Error::input(
+                self.path,
+                format!("{}: its transform makes vertices non-finite", m.name),
+            ));
+        }
+        if lights.is_empty() {
+            self.warnings.push("the scene has no lights; lit renders will be black".into());
+        }
+        let config = self.config(&f)?;
+        Ok(Scene {
+            path: self.path.to_path_buf(),
+            camera,
+            config,
+            materials,
+            lights,
+            meshes,
+            warnings: self.warnings,
+        })
+    }
+
+    /// The `[image]`, `[render]` and `[photons]` tables as a [`RenderConfig`].
+    fn config(&self, f: &file::SceneFile) -> Result<RenderConfig> {
+        let r = &f.render;
+        Ok(RenderConfig {
+            width: f.image.width,
+            height: f.image.height,
+            samples: f.image.samples,
+            integrator: r.integrator,
+            backend: r.backend,
+            bvh: r.bvh,
+            max_depth: r.max_depth,
+            light_samples: r.light_samples,
+            ambient: r.ambient.map_or(Vec3::ZERO, |a| a.0),
+            photons: self.photon_config(&f.photons)?,
+            ..RenderConfig::default()
+        })
+    }
+
+    fn photon_config(&self, p: &file::PhotonSection) -> Result<PhotonConfig> {
+        let kc = p.cone_filter.get_ref().0;
+        let cone_filter = match kc {
+            0.0 => None,
+            k if k >= 1.0 => Some(k),
+            k => {
+                return Err(self.error_at(
+                    p.cone_filter.span(),
+                    format!("cone_filter must be at least 1 (or 0 for none), found {k}"),
+                ))
+            }
+        };
+        let alpha = p.sppm_alpha.get_ref().0;
+        if !(alpha > 0.0 && alpha < 1.0) {
+            return Err(self.error_at(
+                p.sppm_alpha.span(),
+                format!("sppm_alpha must lie between 0 and 1 (exclusive), found {alpha}"),
+            ));
+        }
+        Ok(PhotonConfig {
+            global_photons: p.global,
+            caustic_photons: p.caustic,
+            global_k: p.global_k,
+            caustic_k: p.caustic_k,
+            global_radius: p.global_radius.map(|r| r.0),
+            caustic_radius: p.caustic_radius.map(|r| r.0),
+            cone_filter,
+            gather_rays: p.gather_rays,
+            max_bounces: p.max_bounces,
+            sppm: SppmConfig {
+                passes: p.passes,
+                photons_per_pass: p.pass_photons,
+                initial_radius: p.sppm_radius.map(|r| r.0),
+                alpha,
+            },
+        })
+    }
+
+    /// The materials, and their indices by name.
+    fn materials(&self, f: &file::SceneFile) -> Result<(Vec<Material>, HashMap<String, usize>)> {
         let mut materials = Vec::with_capacity(f.materials.len());
         let mut material_ids = HashMap::new();
         for (name, section) in &f.materials {
@@ -188,7 +248,10 @@ impl Builder<'_> {
             material_ids.insert(name.clone(), materials.len());
             materials.push(material);
         }
+        Ok((materials, material_ids))
+    }
 
+    fn lights(&self, f: &file::SceneFile) -> Result<Vec<Light>> {
         let mut lights = Vec::new();
         for l in &f.point_light {
             lights.push(Light::Point { position: l.position.0, power: l.power.0 });
@@ -202,21 +265,12 @@ impl Builder<'_> {
         for l in &f.spot_light {
             lights.push(self.spot_light(l)?);
         }
+        Ok(lights)
+    }
 
-        let lookup = |name: &Spanned<String>| -> Result<usize> {
-            material_ids.get(name.get_ref()).copied().ok_or_else(|| {
-                let known: Vec<&str> = f.materials.keys().map(String::as_str).collect();
-                let hint = if known.is_empty() {
-                    "the file defines no materials; add a [materials.NAME] table".to_string()
-                } else {
-                    format!("defined materials: {}", known.join(", "))
-                };
-                self.error_at(name.span(), format!("unknown material `{}`; {hint}", name.get_ref()))
-            })
-        };
-
+    /// The built-in shapes: spheres, quads, boxes, rings and teapots.
+    fn shapes(&self, f: &file::SceneFile, lookup: &MaterialLookup) -> Result<Vec<Mesh>> {
         let mut meshes = Vec::new();
-        let mut obj_warnings = Vec::new();
         for (i, s) in f.sphere.iter().enumerate() {
             let mut m = shapes::sphere(
                 &format!("sphere #{}", i + 1),
@@ -268,27 +322,41 @@ impl Builder<'_> {
             meshes.push(m);
         }
         for (i, t) in f.teapot.iter().enumerate() {
-            let patches = match &t.file {
-                None => teapot::parse_bpt(teapot::TEAPOT_BPT, Path::new("scenes/data/teapot.bpt"))?,
-                Some(file) => {
-                    let bpt_path = self.relative(file);
-                    let text = std::fs::read_to_string(&bpt_path).map_err(|e| Error::io(&bpt_path, e))?;
-                    teapot::parse_bpt(&text, &bpt_path)?
-                }
-            };
-            let level = self.overrides.teapot_subdivisions.unwrap_or(t.subdivisions);
-            let (positions, indices) = teapot::tessellate(&patches, level as usize);
-            let mut m =
-                Mesh::new(format!("teapot #{}", i + 1), positions, indices, None, lookup(&t.material)?);
-            // The data is z-up; scenes are y-up: (x, y, z) -> (x, z, -y).
-            m.transform(
-                &(transform_matrix(&t.transform) * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2)),
-            );
-            meshes.push(m);
+            meshes.push(self.teapot(i, t, lookup(&t.material)?)?);
         }
+        Ok(meshes)
+    }
+
+    fn teapot(&self, i: usize, t: &file::TeapotSection, material: usize) -> Result<Mesh> {
+        let patches = match &t.file {
+            None => teapot::parse_bpt(teapot::TEAPOT_BPT, Path::new("scenes/data/teapot.bpt"))?,
+            Some(file) => {
+                let bpt_path = self.relative(file);
+                let text = std::fs::read_to_string(&bpt_path).map_err(|e| Error::io(&bpt_path, e))?;
+                teapot::parse_bpt(&text, &bpt_path)?
+            }
+        };
+        let level = self.overrides.teapot_subdivisions.unwrap_or(t.subdivisions);
+        let (positions, indices) = teapot::tessellate(&patches, level as usize);
+        let mut m = Mesh::new(format!("teapot #{}", i + 1), positions, indices, None, material);
+        // The data is z-up; scenes are y-up: (x, y, z) -> (x, z, -y).
+        m.transform(&(transform_matrix(&t.transform) * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2)));
+        Ok(m)
+    }
+
+    /// The `[[mesh]]` files (OBJ with their MTL materials, or PLY), added to
+    /// `meshes` and `materials`; returns what the files warned about.
+    fn mesh_files(
+        &self,
+        f: &file::SceneFile,
+        lookup: &MaterialLookup,
+        meshes: &mut Vec<Mesh>,
+        materials: &mut Vec<Material>,
+    ) -> Result<Vec<String>> {
+        let mut obj_warnings = Vec::new();
         for m in &f.mesh {
             let obj_path = self.relative(m.file.get_ref());
-            let material = m.material.as_ref().map(&lookup).transpose()?;
+            let material = m.material.as_ref().map(lookup).transpose()?;
             let contents = load_mesh_file(&obj_path, material, materials.len()).map_err(|e| match e {
                 Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self.error_at(
                     m.file.span(),
@@ -308,86 +376,7 @@ impl Builder<'_> {
             }
         }
 
-        self.warnings.extend(obj_warnings);
-        let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
-        if triangles == 0 {
-            return Err(Error::input(
-                self.path,
-                "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[ring]], [[teapot]] or [[mesh]]",
-            ));
-        }
-        if let Some(m) = meshes.iter().find(|m| !m.positions.iter().all(|p| p.is_finite())) {
-            return Err(Error::input(
-                self.path,
-                format!("{}: its transform makes vertices non-finite", m.name),
-            ));
-        }
-        if lights.is_empty() {
-            self.warnings.push("the scene has no lights; lit renders will be black".into());
-        }
-        let photons = self.photon_settings(&f.photons, &meshes)?;
-        Ok(Scene {
-            path: self.path.to_path_buf(),
-            camera,
-            image,
-            render,
-            photons,
-            materials,
-            lights,
-            meshes,
-            warnings: self.warnings,
-        })
-    }
-
-    fn photon_settings(
-        &self,
-        p: &file::PhotonSection,
-        meshes: &[Mesh],
-    ) -> Result<crate::photon::PhotonSettings> {
-        use crate::photon::{Estimate, PhotonSettings};
-        let bounds = meshes.iter().fold(Bounds::EMPTY, |b, m| b.union(m.bounds()));
-        let diagonal = (bounds.max - bounds.min).length();
-        let kc = p.cone_filter.get_ref().0;
-        let cone_filter = match kc {
-            0.0 => None,
-            k if k >= 1.0 => Some(k),
-            k => {
-                return Err(self.error_at(
-                    p.cone_filter.span(),
-                    format!("cone_filter must be at least 1 (or 0 for none), found {k}"),
-                ))
-            }
-        };
-        let alpha = p.sppm_alpha.get_ref().0;
-        if !(alpha > 0.0 && alpha < 1.0) {
-            return Err(self.error_at(
-                p.sppm_alpha.span(),
-                format!("sppm_alpha must lie between 0 and 1 (exclusive), found {alpha}"),
-            ));
-        }
-        Ok(PhotonSettings {
-            global_photons: p.global,
-            caustic_photons: p.caustic,
-            global_estimate: Estimate {
-                k: p.global_k as usize,
-                max_radius: p.global_radius.map_or(diagonal / 25.0, |r| r.0),
-                cone_filter: None,
-            },
-            caustic_estimate: Estimate {
-                k: p.caustic_k as usize,
-                max_radius: p.caustic_radius.map_or(diagonal / 100.0, |r| r.0),
-                cone_filter,
-            },
-            gather_rays: p.gather_rays,
-            max_bounces: p.max_bounces,
-            seed: 0,
-            sppm: crate::render::sppm::SppmSettings {
-                passes: p.passes,
-                photons_per_pass: p.pass_photons,
-                initial_radius: p.sppm_radius.map_or(diagonal / 100.0, |r| r.0),
-                alpha,
-            },
-        })
+        Ok(obj_warnings)
     }
 
     fn material(&self, name: &str, section: &Spanned<file::MaterialSection>) -> Result<Material> {

@@ -10,6 +10,9 @@
 //! fallible call drains it into a Rust [`Error`], so a failure never turns into
 //! a silently black image.
 
+// The one module where `unsafe` is allowed (the crate denies it elsewhere).
+#![allow(unsafe_code)]
+
 mod ffi;
 
 use std::ffi::{c_char, c_void, CStr, CString};

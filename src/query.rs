@@ -1,13 +1,95 @@
-//! A ray's hit turned into what shading needs: position, normals on the
-//! ray's side, material, and robust ray spawning.
+//! The one question every integrator and the photon tracer ask of a scene:
+//! what does this ray meet first, a surface or the front of an area light?
+//! [`SceneQuery::first`] answers it with everything shading needs; a
+//! [`SurfacePoint`] spawns the next ray robustly ([`SurfacePoint::spawn`],
+//! [`SurfacePoint::spawn_to`]). Rays are counted here, in one place.
 
 use glam::Vec3;
 
-use crate::accel::{Hit, Ray};
+use crate::accel::{Hit, Intersector, Ray};
+use crate::light::{nearest_emitter, Light};
 use crate::material::Material;
 use crate::optics;
-use crate::sampling::Rng;
 use crate::scene::Scene;
+
+/// Rays traced, for the summary line of a render.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct RayCount {
+    /// Rays traced to their closest hit (camera, reflection, refraction, gather).
+    pub closest: u64,
+    /// Shadow rays.
+    pub shadow: u64,
+}
+
+impl std::ops::AddAssign for RayCount {
+    fn add_assign(&mut self, o: RayCount) {
+        self.closest += o.closest;
+        self.shadow += o.shadow;
+    }
+}
+
+/// What a ray meets first.
+#[derive(Debug, Clone, Copy)]
+pub enum Interaction<'a> {
+    /// A surface of the scene's geometry.
+    Surface(SurfacePoint),
+    /// The emitting front of an area light (lights are not geometry: they
+    /// are tested against the ray's segment up to the nearest surface).
+    Emitter {
+        /// The light.
+        light: &'a Light,
+        /// Ray parameter of the hit.
+        t: f32,
+        /// Radiance leaving the light towards the ray's origin.
+        radiance: Vec3,
+    },
+}
+
+/// A scene and the intersector that answers its ray queries.
+#[derive(Clone, Copy)]
+pub struct SceneQuery<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Answers ray/triangle queries (Embree or the native BVH).
+    pub accel: &'a dyn Intersector,
+}
+
+impl<'a> SceneQuery<'a> {
+    /// A query over `scene` answered by `accel` (built over its meshes).
+    pub fn new(scene: &'a Scene, accel: &'a dyn Intersector) -> Self {
+        SceneQuery { scene, accel }
+    }
+
+    /// The first surface or area-light front along `ray`; `None` if it
+    /// leaves the scene. Counts one ray.
+    pub fn first(&self, ray: &Ray, count: &mut RayCount) -> Option<Interaction<'a>> {
+        count.closest += 1;
+        let hit = self.accel.intersect(ray);
+        let nearest = Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..*ray };
+        if let Some((light, t, radiance)) = nearest_emitter(&self.scene.lights, &nearest) {
+            return Some(Interaction::Emitter { light, t, radiance });
+        }
+        hit.map(|hit| Interaction::Surface(SurfacePoint::new(self.scene, ray, &hit)))
+    }
+
+    /// The first triangle along `ray`, seeing through lights (geometry
+    /// previews). Counts one ray.
+    pub fn first_hit(&self, ray: &Ray, count: &mut RayCount) -> Option<Hit> {
+        count.closest += 1;
+        self.accel.intersect(ray)
+    }
+
+    /// Whether anything blocks the shadow ray `ray`. Counts one shadow ray.
+    pub fn occluded(&self, ray: &Ray, count: &mut RayCount) -> bool {
+        count.shadow += 1;
+        self.accel.occluded(ray)
+    }
+
+    /// The material of a surface point.
+    pub fn material(&self, sp: &SurfacePoint) -> &'a Material {
+        &self.scene.materials[sp.material]
+    }
+}
 
 /// A point on a surface, seen from an incoming ray.
 #[derive(Debug, Clone, Copy)]
@@ -22,6 +104,8 @@ pub struct SurfacePoint {
     pub front: bool,
     /// Index of the material.
     pub material: usize,
+    /// Ray parameter of the hit.
+    pub t: f32,
     /// Bound on the floating-point error of `p`, per axis.
     error: Vec3,
 }
@@ -42,7 +126,7 @@ impl SurfacePoint {
         let ng = if front { face } else { -face };
         let ns = mesh.shading_normal(hit.prim_id, hit.u, hit.v);
         let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
-        SurfacePoint { p: w0 + w1 + w2, ng, ns, front, material: mesh.material, error }
+        SurfacePoint { p: w0 + w1 + w2, ng, ns, front, material: mesh.material, t: hit.t, error }
     }
 
     /// The ray origin for leaving in direction `dir`: `p` pushed along the
@@ -92,34 +176,6 @@ impl SurfacePoint {
             _ => optics::refract(dir, self.ng, eta).filter(|t| t.dot(self.ng) < 0.0),
         };
         (kr, t)
-    }
-
-    /// One direction out of a smooth dielectric of index `ior` for `dir`:
-    /// refracted with probability `1 - kr`, else reflected (always on total
-    /// internal reflection). Fresnel chooses with exactly its own weights, so
-    /// whatever follows needs no rescaling. Draws a number only when there is
-    /// a choice.
-    pub fn dielectric_direction(&self, dir: Vec3, ior: f32, rng: &mut Rng) -> Vec3 {
-        let (kr, refracted) = self.refract(dir, ior);
-        match refracted {
-            Some(t) if rng.uniform() >= kr => t,
-            _ => self.reflect(dir),
-        }
-    }
-
-    /// One of `m`'s mirror and glass parts for `dir`, chosen in proportion to
-    /// its weight summed over channels: the part's weight over the chance of
-    /// choosing it, and the direction out. `None` if `m` has neither part.
-    pub fn specular_bounce(&self, m: &Material, dir: Vec3, rng: &mut Rng) -> Option<(Vec3, Vec3)> {
-        let (mirror, glass) = (m.mirror.element_sum(), m.transmittance.element_sum());
-        if mirror + glass <= 0.0 {
-            return None;
-        }
-        Some(if rng.uniform() * (mirror + glass) < mirror {
-            (m.mirror * ((mirror + glass) / mirror), self.reflect(dir))
-        } else {
-            (m.transmittance * ((mirror + glass) / glass), self.dielectric_direction(dir, m.ior, rng))
-        })
     }
 
     /// A shadow ray from the surface to `target`, stopping just short of it

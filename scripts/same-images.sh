@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Checks that a change keeps the pictures: renders every example scene with
+# every integrator through two caustix binaries (same seed, small sizes) and
+# compares the linear EXR images, bit for bit first, then by RMSE.
+#
+#   scripts/same-images.sh OLD_BINARY NEW_BINARY [OUT_DIR]
+#
+# Exit 0 when every pair is bit-identical; 1 otherwise (the table says which
+# differ and by how much, so a change made on purpose can be judged "within noise").
+set -euo pipefail
+cd "$(dirname "$0")/.."
+old=$1
+new=$2
+out=${3:-target/same-images}
+mkdir -p "$out/old" "$out/new"
+integrators=(photon sppm whitted path normals depth)
+flags=(--width 64 --height 48 --spp 2 --photons 20000 --caustic-photons 20000
+       --passes 4 --pass-photons 20000 --seed 7)
+status=0
+printf '%-10s %-8s %-14s %s\n' scene integrator result "rmse (relative to the mean)"
+for scene in scenes/*.toml; do
+    name=$(basename "$scene" .toml)
+    for integrator in "${integrators[@]}"; do
+        for side in old new; do
+            bin=$old
+            [ "$side" = new ] && bin=$new
+            "$bin" render "$scene" --integrator "$integrator" "${flags[@]}" \
+                -o "$out/$side/$name-$integrator.exr" 2>/dev/null
+        done
+        a="$out/old/$name-$integrator.exr"
+        b="$out/new/$name-$integrator.exr"
+        if cmp -s "$a" "$b"; then
+            printf '%-10s %-8s %-14s\n' "$name" "$integrator" identical
+        else
+            status=1
+            summary=$("$new" compare "$b" "$a" | awk '/^rmse/ {r=$2} /^mean/ {m=$2} END {printf "%s (%.2e)", r, (m > 0 ? r / m : 0)}')
+            printf '%-10s %-8s %-14s %s\n' "$name" "$integrator" DIFFERENT "$summary"
+        fi
+    done
+done
+exit $status

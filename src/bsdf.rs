@@ -1,0 +1,349 @@
+//! Scattering at one surface point: a [`Material`] seen from an incoming
+//! ray becomes a [`Bsdf`] that evaluates, samples and gives the density of
+//! its lobes. Every integrator and the photon tracer scatter through it, so
+//! the lobes, their choice and their weights are written once.
+//!
+//! The lobes: Lambertian diffuse, a normalised Phong lobe (glossy), a
+//! perfect mirror, and a smooth dielectric (Fresnel reflection or
+//! refraction). The first two are smooth; the last two are deltas, which
+//! only [`Bsdf::sample`] and the specular helpers can produce.
+
+use std::f32::consts::FRAC_1_PI;
+
+use glam::Vec3;
+
+use crate::material::Material;
+use crate::optics;
+use crate::query::SurfacePoint;
+use crate::sampling::{around, cosine_hemisphere, phong_lobe, phong_lobe_pdf, Rng};
+
+/// What kind of scattering a sample made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ScatterKind {
+    /// Lambertian reflection.
+    Diffuse,
+    /// Phong-lobe reflection.
+    Glossy,
+    /// Mirror reflection, or Fresnel reflection off a dielectric.
+    SpecularReflection,
+    /// Refraction into or out of a dielectric.
+    SpecularTransmission,
+}
+
+impl ScatterKind {
+    /// Mirror and glass: a single direction, no density.
+    pub fn is_specular(self) -> bool {
+        matches!(self, ScatterKind::SpecularReflection | ScatterKind::SpecularTransmission)
+    }
+}
+
+/// One sampled direction out of a surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BsdfSample {
+    /// Unit direction the light goes on in (away from the surface).
+    pub wi: Vec3,
+    /// `f cos / pdf`, the lobe choice included: what the path's weight is
+    /// multiplied by.
+    pub weight: Vec3,
+    /// Solid-angle density of the smooth lobes at `wi` (for multiple
+    /// importance sampling); `None` for a specular sample.
+    pub pdf: Option<f32>,
+    /// Which lobe made it.
+    pub kind: ScatterKind,
+}
+
+/// A material at a surface point, seen along a ray.
+#[derive(Debug, Clone, Copy)]
+pub struct Bsdf<'a> {
+    material: &'a Material,
+    sp: &'a SurfacePoint,
+    /// Unit direction of the arriving ray (towards the surface).
+    dir: Vec3,
+    /// Chance of choosing each lobe when sampling: in proportion to its
+    /// reflectance summed over channels (diffuse, glossy, mirror, glass).
+    choice: [f32; 4],
+}
+
+impl<'a> Bsdf<'a> {
+    /// `material` at `sp`, for a ray arriving along the unit direction `dir`.
+    pub fn new(material: &'a Material, sp: &'a SurfacePoint, dir: Vec3) -> Self {
+        let m = material;
+        let sums = [m.diffuse, m.specular, m.mirror, m.transmittance].map(|c| c.element_sum());
+        let total: f32 = sums.iter().sum();
+        let choice = sums.map(|s| if total > 0.0 { s / total } else { 0.0 });
+        Bsdf { material, sp, dir, choice }
+    }
+
+    /// The material.
+    pub fn material(&self) -> &'a Material {
+        self.material
+    }
+
+    /// Unit direction back along the arriving ray (towards the viewer).
+    pub fn wo(&self) -> Vec3 {
+        -self.dir
+    }
+
+    /// Whether a smooth (diffuse or glossy) lobe is there: the part that
+    /// direct light and photon estimates act on.
+    pub fn has_smooth(&self) -> bool {
+        self.material.is_glossy_or_diffuse()
+    }
+
+    /// Whether a specular lobe (mirror or glass) is there.
+    pub fn has_specular(&self) -> bool {
+        self.material.is_specular()
+    }
+
+    /// The fraction of light scattered, per channel, all lobes together
+    /// (what Russian roulette for photons is decided on).
+    pub fn albedo(&self) -> Vec3 {
+        self.material.total_reflectance()
+    }
+
+    /// The chance that [`Bsdf::sample`] picks a smooth lobe.
+    pub fn smooth_probability(&self) -> f32 {
+        self.choice[0] + self.choice[1]
+    }
+
+    /// The smooth lobes' BRDF for light arriving from `wi` (unit, away from
+    /// the surface) and leaving towards the viewer.
+    pub fn eval(&self, wi: Vec3) -> Vec3 {
+        self.material.brdf(self.sp.ns, wi, self.wo())
+    }
+
+    /// Solid-angle density with which [`Bsdf::sample`] produces `wi` through
+    /// its smooth lobes, lobe choice included.
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        let n = self.sp.ns;
+        let cos = wi.dot(n);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        let [diffuse, glossy, ..] = self.choice;
+        let mut pdf = diffuse * cos * FRAC_1_PI;
+        if glossy > 0.0 {
+            let e = self.material.phong_exponent;
+            pdf += glossy * phong_lobe_pdf(optics::reflect(self.dir, n).dot(wi), e);
+        }
+        pdf
+    }
+
+    /// Picks a lobe with `u_lobe` (uniform in `[0, 1)`) in proportion to its
+    /// reflectance, then a direction from it with `rng`. Smooth lobes are
+    /// sampled as one mixture (their weight is `f cos / pdf` over both), so
+    /// the density is the one [`Bsdf::pdf`] gives. `None` when the material
+    /// scatters nothing or the direction would leave below the surface.
+    pub fn sample(&self, u_lobe: f32, rng: &mut Rng) -> Option<BsdfSample> {
+        let [diffuse, glossy, mirror, glass] = self.choice;
+        let (sp, m) = (self.sp, self.material);
+        let smooth = diffuse + glossy;
+        if u_lobe < smooth {
+            let (wi, kind) = if u_lobe < diffuse {
+                (around(sp.ns, cosine_hemisphere(rng.uniform2())), ScatterKind::Diffuse)
+            } else {
+                (
+                    around(sp.reflect(self.dir), phong_lobe(rng.uniform2(), m.phong_exponent)),
+                    ScatterKind::Glossy,
+                )
+            };
+            let cos = wi.dot(sp.ns);
+            let pdf = self.pdf(wi);
+            if cos <= 0.0 || wi.dot(sp.ng) <= 0.0 || pdf <= 0.0 {
+                return None;
+            }
+            return Some(BsdfSample { wi, weight: self.eval(wi) * cos / pdf, pdf: Some(pdf), kind });
+        }
+        if u_lobe < smooth + mirror {
+            return Some(self.mirror(m.mirror / mirror));
+        }
+        if glass <= 0.0 {
+            return None;
+        }
+        Some(self.dielectric(m.transmittance / glass, rng))
+    }
+
+    /// One of the specular lobes (mirror or glass), chosen in proportion to
+    /// its reflectance with one number from `rng`. `None` if there is none.
+    pub fn sample_specular(&self, rng: &mut Rng) -> Option<BsdfSample> {
+        let m = self.material;
+        let (mirror, glass) = (m.mirror.element_sum(), m.transmittance.element_sum());
+        if mirror + glass <= 0.0 {
+            return None;
+        }
+        Some(if rng.uniform() * (mirror + glass) < mirror {
+            self.mirror(m.mirror * ((mirror + glass) / mirror))
+        } else {
+            self.dielectric(m.transmittance * ((mirror + glass) / glass), rng)
+        })
+    }
+
+    /// Every specular direction with its weight, none chosen at random (for
+    /// Whitted's recursion): the mirror, then the dielectric's Fresnel
+    /// reflection and refraction (none on total internal reflection).
+    pub fn specular_branches(&self) -> impl Iterator<Item = (Vec3, Vec3)> {
+        let m = self.material;
+        let mirror = (m.mirror.max_element() > 0.0).then(|| (m.mirror, self.sp.reflect(self.dir)));
+        let (reflected, refracted) = if m.transmittance.max_element() > 0.0 {
+            let (kr, t) = self.sp.refract(self.dir, m.ior);
+            (
+                Some((m.transmittance * kr, self.sp.reflect(self.dir))),
+                t.map(|t| (m.transmittance * (1.0 - kr), t)),
+            )
+        } else {
+            (None, None)
+        };
+        [mirror, reflected, refracted].into_iter().flatten()
+    }
+
+    fn mirror(&self, weight: Vec3) -> BsdfSample {
+        BsdfSample { wi: self.sp.reflect(self.dir), weight, pdf: None, kind: ScatterKind::SpecularReflection }
+    }
+
+    /// The smooth dielectric: refracted with probability `1 - kr`, else
+    /// reflected (always on total internal reflection). Fresnel chooses with
+    /// exactly its own weights, so `weight` needs no rescaling. Draws a
+    /// number only when there is a choice.
+    pub(crate) fn dielectric(&self, weight: Vec3, rng: &mut Rng) -> BsdfSample {
+        let (kr, refracted) = self.sp.refract(self.dir, self.material.ior);
+        match refracted {
+            Some(wi) if rng.uniform() >= kr => {
+                BsdfSample { wi, weight, pdf: None, kind: ScatterKind::SpecularTransmission }
+            }
+            _ => self.mirror(weight),
+        }
+    }
+}
+
+/// Russian roulette (Arvo and Kirk 1990), decided here for every path and
+/// photon: with the uniform `u`, a path goes on with probability `q`, and a
+/// survivor's weight must then be divided by the returned `q`, which keeps
+/// the estimate unbiased. `None`: the path ends.
+pub fn russian_roulette(q: f32, u: f32) -> Option<f32> {
+    (u < q).then_some(q)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{Hit, Ray};
+
+    /// A surface point on the plane y = 0 (normal +y), hit from above.
+    fn point() -> SurfacePoint {
+        let scene = crate::scene::Scene::from_toml(
+            r#"
+            [camera]
+            eye = [0, 1, 0]
+            look_at = [0, 0, 0]
+            up = [0, 0, 1]
+            [materials.m]
+            diffuse = 0.5
+            [[quad]]
+            center = [0, 0, 0]
+            u = [0, 0, 2]
+            v = [2, 0, 0]
+            material = "m"
+        "#,
+            std::path::Path::new("plane.toml"),
+        )
+        .unwrap();
+        let ray = Ray::new(Vec3::new(0.1, 1.0, 0.2), -Vec3::Y);
+        let mesh = &scene.meshes[0];
+        let hit = Hit { t: 1.0, u: 0.3, v: 0.3, geom_id: 0, prim_id: 0, ng: mesh.face_normal(0) };
+        SurfacePoint::new(&scene, &ray, &hit)
+    }
+
+    /// The mean of `weight` over many samples is the albedo seen from `dir`:
+    /// what an unbiased sampler must give, lobe choice included.
+    fn mean_weight(m: &Material, dir: Vec3) -> Vec3 {
+        let sp = point();
+        let bsdf = Bsdf::new(m, &sp, dir);
+        let mut rng = Rng::new(1, 2);
+        let n = 200_000;
+        let mut sum = Vec3::ZERO;
+        for _ in 0..n {
+            let u = rng.uniform();
+            if let Some(s) = bsdf.sample(u, &mut rng) {
+                assert!((s.wi.length() - 1.0).abs() < 1e-4);
+                sum += s.weight;
+            }
+        }
+        sum / n as f32
+    }
+
+    #[test]
+    fn sampling_returns_the_albedo_of_every_lobe_mix() {
+        let straight_down = -Vec3::Y;
+        let diffuse = Material { diffuse: Vec3::new(0.2, 0.5, 0.8), ..Material::default() };
+        let w = mean_weight(&diffuse, straight_down);
+        assert!((w - diffuse.diffuse).abs().max_element() < 0.01, "{w}");
+        // Diffuse and glossy as one mixture; at normal view the whole lobe
+        // is above the surface, so its albedo is exactly `specular`.
+        let mixed = Material {
+            diffuse: Vec3::splat(0.3),
+            specular: Vec3::splat(0.4),
+            phong_exponent: 20.0,
+            mirror: Vec3::splat(0.2),
+            ..Material::default()
+        };
+        let w = mean_weight(&mixed, straight_down);
+        assert!((w - Vec3::splat(0.9)).abs().max_element() < 0.01, "{w}");
+    }
+
+    #[test]
+    fn pdf_integrates_to_the_smooth_choice() {
+        let m = Material {
+            diffuse: Vec3::splat(0.3),
+            specular: Vec3::splat(0.3),
+            phong_exponent: 10.0,
+            mirror: Vec3::splat(0.3),
+            ..Material::default()
+        };
+        let sp = point();
+        let bsdf = Bsdf::new(&m, &sp, -Vec3::Y);
+        // Midpoint rule over the upper hemisphere in (cos theta, phi).
+        let (nt, np) = (800, 200);
+        let mut integral = 0.0;
+        for i in 0..nt {
+            let cos = (i as f32 + 0.5) / nt as f32;
+            let sin = (1.0 - cos * cos).sqrt();
+            for j in 0..np {
+                let phi = std::f32::consts::TAU * (j as f32 + 0.5) / np as f32;
+                integral += bsdf.pdf(Vec3::new(sin * phi.cos(), cos, sin * phi.sin()));
+            }
+        }
+        integral *= std::f32::consts::TAU / (nt * np) as f32;
+        assert!((integral - bsdf.smooth_probability()).abs() < 2e-3, "{integral}");
+        assert!((bsdf.smooth_probability() - 2.0 / 3.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn specular_branches_split_by_fresnel() {
+        let glass = Material { transmittance: Vec3::ONE, ior: 1.5, ..Material::default() };
+        let sp = point();
+        let bsdf = Bsdf::new(&glass, &sp, -Vec3::Y);
+        let branches: Vec<(Vec3, Vec3)> = bsdf.specular_branches().collect();
+        assert_eq!(branches.len(), 2);
+        // Normal incidence at n = 1.5: 4% reflected straight back, 96% straight through.
+        assert!((branches[0].0.x - 0.04).abs() < 1e-6 && branches[0].1.abs_diff_eq(Vec3::Y, 1e-6));
+        assert!((branches[1].0.x - 0.96).abs() < 1e-6 && branches[1].1.abs_diff_eq(-Vec3::Y, 1e-6));
+        let kinds: Vec<ScatterKind> = {
+            let mut rng = Rng::new(0, 0);
+            (0..200).filter_map(|_| bsdf.sample_specular(&mut rng)).map(|s| s.kind).collect()
+        };
+        let through = kinds.iter().filter(|k| **k == ScatterKind::SpecularTransmission).count();
+        assert!((180..200).contains(&through), "about 96% refract: {through} of 200");
+    }
+
+    #[test]
+    fn roulette_keeps_the_expected_weight() {
+        let mut rng = Rng::new(5, 5);
+        let n = 100_000;
+        let q = 0.3;
+        let mean: f32 =
+            (0..n).filter_map(|_| russian_roulette(q, rng.uniform())).map(|q| 1.0 / q).sum::<f32>()
+                / n as f32;
+        assert!((mean - 1.0).abs() < 0.02, "{mean}");
+        assert_eq!(russian_roulette(0.0, 0.0), None);
+    }
+}

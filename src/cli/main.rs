@@ -1,0 +1,124 @@
+//! The `caustix` command line: a thin layer that parses arguments, calls
+//! the library and prints. Each command's arguments and code live in their
+//! own file: `render.rs`, `bench.rs` (measurements), `tools.rs` (info,
+//! export, compare).
+
+mod bench;
+mod render;
+mod tools;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::{Parser, Subcommand};
+
+use caustix::scene::Scene;
+
+#[derive(Parser)]
+#[command(
+    name = "caustix",
+    version,
+    about = "A photon-mapping renderer: Embree for ray hits, Rust for the light"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene file to an image.
+    Render(render::RenderArgs),
+    /// Print what a scene holds: triangles, vertices, bounds, materials, lights.
+    Info {
+        /// The scene file.
+        scene: PathBuf,
+    },
+    /// Write the scene's triangles, all meshes in one, as a mesh file:
+    /// binary PLY (fast to load) or OBJ, by the output's extension.
+    Export {
+        /// The scene file.
+        scene: PathBuf,
+        /// The mesh file to write (.ply or .obj).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Re-tessellate every teapot at this many quads per patch edge first
+        /// (about 64 N^2 triangles: 125 -> 1M, 395 -> 10M, 685 -> 30M).
+        #[arg(long)]
+        teapot_subdivisions: Option<u32>,
+    },
+    /// Measure performance.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
+    /// Compare an image with a reference: RMSE, relative MSE, mean absolute error.
+    Compare {
+        /// The image (.exr or .hdr for linear values; .png is decoded from sRGB).
+        image: PathBuf,
+        /// The reference image, same size.
+        reference: PathBuf,
+        /// Also write a false-colour picture of the differences (PNG).
+        #[arg(long)]
+        error_image: Option<PathBuf>,
+        /// Absolute difference shown as full red in the error picture.
+        #[arg(long, default_value_t = 0.1)]
+        error_scale: f32,
+    },
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render(args) => render::render(args),
+        Command::Info { scene } => tools::info(&scene),
+        Command::Export { scene, output, teapot_subdivisions } => {
+            tools::export(&scene, &output, teapot_subdivisions)
+        }
+        Command::Compare { image, reference, error_image, error_scale } => {
+            tools::compare(&image, &reference, error_image.as_deref(), error_scale)
+        }
+        Command::Bench(command) => bench::run(command),
+    }
+}
+
+fn load(path: &Path) -> anyhow::Result<Scene> {
+    let scene = Scene::load(path)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    Ok(scene)
+}
+
+/// The scene's intersector, as its `[render]` table asks (backend, BVH layout).
+fn build_accel(scene: &Scene) -> anyhow::Result<Box<dyn caustix::accel::Intersector + '_>> {
+    caustix::accel::build_with_layout(scene.config.backend, scene.config.bvh, &scene.triangle_views())
+        .context("building the ray intersector")
+}
+
+/// Checks a command-line number of a measurement (render settings go
+/// through [`caustix::RenderConfig::validate`] instead).
+fn in_range(flag: &str, value: u32, min: u32, max: u32) -> anyhow::Result<u32> {
+    anyhow::ensure!((min..=max).contains(&value), "{flag} must be from {min} to {max}, found {value}");
+    Ok(value)
+}
+
+/// A parser for a library type named by one of `names` (what clap lists in
+/// its help and errors), so the library needs no clap derives.
+fn named<T: std::str::FromStr + Clone + Send + Sync + 'static>(
+    names: impl IntoIterator<Item = &'static str>,
+) -> impl TypedValueParser<Value = T> {
+    PossibleValuesParser::new(names).map(|name| match name.parse::<T>() {
+        Ok(value) => value,
+        Err(_) => unreachable!("`{name}` is one of the names listed for this type"),
+    })
+}

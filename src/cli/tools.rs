@@ -1,0 +1,108 @@
+//! `caustix info`, `caustix export` and `caustix compare`.
+
+use std::path::Path;
+
+use anyhow::Context;
+
+use crate::{build_accel, load};
+use caustix::scene::Scene;
+
+pub fn export(scene_path: &Path, output: &Path, teapot_subdivisions: Option<u32>) -> anyhow::Result<()> {
+    let extension = output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    anyhow::ensure!(
+        matches!(extension.as_deref(), Some("ply" | "obj")),
+        "--output {}: write .ply (binary, fast to load) or .obj",
+        output.display()
+    );
+    let start = std::time::Instant::now();
+    let scene = Scene::load_with(scene_path, &caustix::scene::Overrides { teapot_subdivisions })?;
+    let (positions, normals, indices) = scene.merged_triangles();
+    let file = std::fs::File::create(output).with_context(|| format!("creating {}", output.display()))?;
+    let out = std::io::BufWriter::with_capacity(1 << 20, file);
+    if extension.as_deref() == Some("ply") {
+        caustix::scene::ply::write_binary(out, &positions, &normals, &indices)
+    } else {
+        caustix::scene::obj::write(out, &positions, &normals, &indices)
+    }
+    .with_context(|| format!("writing {}", output.display()))?;
+    eprintln!(
+        "wrote {}: {} triangles, {} vertices in {:.1} s",
+        output.display(),
+        indices.len(),
+        positions.len(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+pub fn compare(image: &Path, reference: &Path, error_image: Option<&Path>, scale: f32) -> anyhow::Result<()> {
+    use caustix::Image;
+    let (a, b) = (Image::load(image)?, Image::load(reference)?);
+    let d = a.difference(&b).ok_or_else(|| {
+        anyhow::anyhow!("the images differ in size: {}x{} and {}x{}", a.width, a.height, b.width, b.height)
+    })?;
+    println!("rmse     {:.6}", d.rmse);
+    println!("rel_mse  {:.6}", d.rel_mse);
+    println!("mae      {:.6}", d.mae);
+    println!("mean     {:.6} (reference {:.6}, ratio {:.4})", d.means.0, d.means.1, d.means.0 / d.means.1);
+    if let Some(out) = error_image {
+        anyhow::ensure!(scale.is_finite() && scale > 0.0, "--error-scale must be greater than 0");
+        a.error_image(&b, scale).save(out, 0.0)?;
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+pub fn info(path: &Path) -> anyhow::Result<()> {
+    let start = std::time::Instant::now();
+    let scene = load(path)?;
+    let load_seconds = start.elapsed().as_secs_f64();
+    let b = scene.bounds();
+    println!("scene     {} (loaded in {load_seconds:.2} s)", path.display());
+    println!(
+        "image     {}x{}, {} samples per pixel",
+        scene.config.width, scene.config.height, scene.config.samples
+    );
+    println!(
+        "camera    eye {}, looking along {}, fov {:.1} deg",
+        scene.camera.eye,
+        -scene.camera.w,
+        2.0 * scene.camera.tan_half_fov.atan().to_degrees()
+    );
+    println!(
+        "geometry  {} triangles, {} vertices in {} meshes",
+        scene.triangle_count(),
+        scene.vertex_count(),
+        scene.meshes.len()
+    );
+    println!("bounds    {} to {}", b.min, b.max);
+    let bytes: usize = scene.meshes.iter().map(|m| m.bytes()).sum();
+    println!(
+        "memory    {:.1} MiB of positions, normals and indices ({:.1} bytes per triangle)",
+        bytes as f64 / (1024.0 * 1024.0),
+        bytes as f64 / scene.triangle_count().max(1) as f64
+    );
+    for m in &scene.meshes {
+        println!(
+            "  mesh    {:<24} {:>9} triangles  material {}",
+            m.name,
+            m.indices.len(),
+            scene.materials[m.material].name
+        );
+    }
+    println!("materials {}", scene.materials.len());
+    for m in &scene.materials {
+        println!(
+            "  {:<22} diffuse {} specular {} (exp {}) mirror {} transmit {} ior {}",
+            m.name, m.diffuse, m.specular, m.phong_exponent, m.mirror, m.transmittance, m.ior
+        );
+    }
+    println!("lights    {}", scene.lights.len());
+    for l in &scene.lights {
+        println!("  {}", l.describe());
+    }
+    let start = std::time::Instant::now();
+    let accel = build_accel(&scene)?;
+    println!("backend   {} (built in {:.2} s)", accel.name(), start.elapsed().as_secs_f64());
+    Ok(())
+}

@@ -1,0 +1,362 @@
+//! What a render is asked to do, besides the scene: [`RenderConfig`].
+//!
+//! A scene file's `[image]`, `[render]` and `[photons]` tables fill one in
+//! (see [`crate::scene::Scene::config`]); the command line and library
+//! callers change fields and call [`RenderConfig::validate`], which checks
+//! every limit in one place, so a library caller gets the same clear error
+//! as a user of the command line instead of a panic.
+
+use glam::Vec3;
+
+use crate::accel::{Backend, BvhLayout};
+use crate::error::{Error, Result};
+
+/// Bounds on the numbers a scene file, the command line or a library caller may set.
+pub mod limits {
+    /// Largest image side we accept (a typo like 100000 would exhaust memory).
+    pub const MAX_IMAGE_SIDE: u32 = 16384;
+    /// Most samples per pixel (and light samples, gather rays) we accept.
+    pub const MAX_SAMPLES: u32 = 1 << 16;
+    /// Longest ray chain (and most photon bounces) we accept.
+    pub const MAX_DEPTH: u32 = 64;
+    /// Finest tessellation we accept (sphere: 20 * 4^9 = 5.2M triangles).
+    pub const MAX_SPHERE_SUBDIVISIONS: u32 = 9;
+    /// Finest teapot tessellation (32 * 2 * 1024^2 = 67M triangles).
+    pub const MAX_TEAPOT_LEVEL: u32 = 1024;
+    /// Most photons a map (or a pass) may be asked for.
+    pub const MAX_PHOTONS: u32 = 100_000_000;
+    /// Most passes progressive photon mapping may be asked for.
+    pub const MAX_PASSES: u32 = 1_000_000;
+    /// Most photons one radiance estimate may use.
+    pub const MAX_NEIGHBOURS: u32 = 100_000;
+}
+
+/// Which integrator computes the pixels. Each has its own file under
+/// [`crate::integrator`]; [`crate::integrator::create`] makes one from its kind.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum IntegratorKind {
+    /// Photon mapping: Whitted ray tracing plus caustics from the caustic
+    /// map and indirect light from the global map (by final gathering, or
+    /// shown directly when there are no gather rays).
+    #[default]
+    Photon,
+    /// Stochastic progressive photon mapping: passes of camera paths and
+    /// photons with a shrinking radius, converging to the exact image.
+    Sppm,
+    /// Whitted ray tracing: direct light, mirrors, refraction with Fresnel.
+    Whitted,
+    /// The unbiased reference: path tracing with next-event estimation and
+    /// multiple importance sampling for area lights.
+    Path,
+    /// Geometry preview: smooth normals as colours, `0.5 * (n + 1)`, dimmed by
+    /// the angle to the viewer so shapes read clearly.
+    Normals,
+    /// Geometry preview: distance to the first hit, near bright, far dark.
+    Depth,
+}
+
+impl IntegratorKind {
+    /// Every kind, in the order the command line lists them.
+    pub const ALL: [IntegratorKind; 6] = [
+        IntegratorKind::Photon,
+        IntegratorKind::Sppm,
+        IntegratorKind::Whitted,
+        IntegratorKind::Path,
+        IntegratorKind::Normals,
+        IntegratorKind::Depth,
+    ];
+
+    /// The lower-case name used in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::Photon => "photon",
+            IntegratorKind::Sppm => "sppm",
+            IntegratorKind::Whitted => "whitted",
+            IntegratorKind::Path => "path",
+            IntegratorKind::Normals => "normals",
+            IntegratorKind::Depth => "depth",
+        }
+    }
+}
+
+impl std::str::FromStr for IntegratorKind {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        IntegratorKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| {
+            let names: Vec<&str> = IntegratorKind::ALL.iter().map(|k| k.name()).collect();
+            format!("unknown integrator `{s}`; choose from {}", names.join(", "))
+        })
+    }
+}
+
+/// How a radiance estimate gathers photons.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Photons used at most (the k nearest).
+    pub k: usize,
+    /// Largest search radius.
+    pub max_radius: f32,
+    /// Cone filter constant `k_c >= 1` (Jensen): photons are weighted by
+    /// `1 - d / (k_c r)`, sharpening caustics. `None`: no filter.
+    pub cone_filter: Option<f32>,
+}
+
+/// How progressive photon mapping runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SppmConfig {
+    /// Passes (each one camera sample per pixel and one batch of photons).
+    pub passes: u32,
+    /// Photons emitted per pass.
+    pub photons_per_pass: u32,
+    /// Every pixel's gathering radius before the first pass; `None`: 1/100
+    /// of the scene's bounding-box diagonal.
+    pub initial_radius: Option<f32>,
+    /// The fraction of new photons kept per pass, in (0, 1): smaller shrinks
+    /// the radius faster (less bias, more noise). Hachisuka and Jensen use 0.7.
+    pub alpha: f32,
+}
+
+/// Photon counts and how the maps are read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PhotonConfig {
+    /// Photons emitted for the global map.
+    pub global_photons: u32,
+    /// Photons emitted for the caustic map.
+    pub caustic_photons: u32,
+    /// Nearest photons per global estimate.
+    pub global_k: u32,
+    /// Nearest photons per caustic estimate.
+    pub caustic_k: u32,
+    /// Largest global search radius; `None`: 1/25 of the scene's diagonal.
+    pub global_radius: Option<f32>,
+    /// Largest caustic search radius; `None`: 1/100 of the scene's diagonal.
+    pub caustic_radius: Option<f32>,
+    /// Cone filter constant for caustic estimates (at least 1); `None`: no filter.
+    pub cone_filter: Option<f32>,
+    /// Final-gathering rays per pixel, shared over its samples; 0 shows the
+    /// global map directly.
+    pub gather_rays: u32,
+    /// Most bounces a photon makes.
+    pub max_bounces: u32,
+    /// Progressive photon mapping (for [`IntegratorKind::Sppm`]).
+    pub sppm: SppmConfig,
+}
+
+impl Default for PhotonConfig {
+    fn default() -> Self {
+        PhotonConfig {
+            global_photons: 100_000,
+            caustic_photons: 200_000,
+            global_k: 100,
+            caustic_k: 60,
+            global_radius: None,
+            caustic_radius: None,
+            cone_filter: Some(1.1),
+            gather_rays: 64,
+            max_bounces: 16,
+            sppm: SppmConfig { passes: 64, photons_per_pass: 100_000, initial_radius: None, alpha: 0.7 },
+        }
+    }
+}
+
+impl PhotonConfig {
+    /// The global map's estimate in a scene whose bounding box has this diagonal.
+    pub fn global_estimate(&self, diagonal: f32) -> Estimate {
+        Estimate {
+            k: self.global_k as usize,
+            max_radius: self.global_radius.unwrap_or(diagonal / 25.0),
+            cone_filter: None,
+        }
+    }
+
+    /// The caustic map's estimate in a scene whose bounding box has this diagonal.
+    pub fn caustic_estimate(&self, diagonal: f32) -> Estimate {
+        Estimate {
+            k: self.caustic_k as usize,
+            max_radius: self.caustic_radius.unwrap_or(diagonal / 100.0),
+            cone_filter: self.cone_filter,
+        }
+    }
+
+    /// Progressive photon mapping's starting radius in a scene with this diagonal.
+    pub fn sppm_radius(&self, diagonal: f32) -> f32 {
+        self.sppm.initial_radius.unwrap_or(diagonal / 100.0)
+    }
+}
+
+/// Everything that controls a render besides the scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderConfig {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Camera samples per pixel (stratified, jittered).
+    pub samples: u32,
+    /// The integrator.
+    pub integrator: IntegratorKind,
+    /// The intersector.
+    pub backend: Backend,
+    /// Embree's BVH layout.
+    pub bvh: BvhLayout,
+    /// Longest chain of rays from the camera (1 = camera rays only).
+    pub max_depth: u32,
+    /// Shadow-ray samples per area light at each shading point.
+    pub light_samples: u32,
+    /// Constant ambient radiance times the diffuse colour: the seed report's
+    /// classic look, off (zero) by default.
+    pub ambient: Vec3,
+    /// Specular branches carrying less than this fraction of the camera
+    /// ray's weight are not followed (Whitted and photon mapping).
+    pub min_throughput: f32,
+    /// Seed of every random stream (pixels and photons): another seed, an
+    /// independent image.
+    pub seed: u64,
+    /// Photon counts and estimates.
+    pub photons: PhotonConfig,
+}
+
+impl Default for RenderConfig {
+    fn default() -> Self {
+        RenderConfig {
+            width: 640,
+            height: 480,
+            samples: 4,
+            integrator: IntegratorKind::default(),
+            backend: Backend::Embree,
+            bvh: BvhLayout::default(),
+            max_depth: 10,
+            light_samples: 4,
+            ambient: Vec3::ZERO,
+            min_throughput: 1e-4,
+            seed: 0,
+            photons: PhotonConfig::default(),
+        }
+    }
+}
+
+/// `value` in `min..=max`, or the error naming `name`.
+fn in_range(name: &'static str, value: u32, min: u32, max: u32) -> Result<()> {
+    if (min..=max).contains(&value) {
+        Ok(())
+    } else {
+        Err(Error::Setting { name, message: format!("must be from {min} to {max}, found {value}") })
+    }
+}
+
+/// `None`, or a finite distance greater than 0.
+fn distance(name: &'static str, value: Option<f32>) -> Result<()> {
+    match value {
+        Some(r) if !(r.is_finite() && r > 0.0) => {
+            Err(Error::Setting { name, message: format!("must be a distance greater than 0, found {r}") })
+        }
+        _ => Ok(()),
+    }
+}
+
+impl RenderConfig {
+    /// The pixel count.
+    pub fn pixels(&self) -> u64 {
+        self.width as u64 * self.height as u64
+    }
+
+    /// Checks every setting against its limits; the error names the setting
+    /// (as [`Error::Setting`]) and says what is allowed.
+    pub fn validate(&self) -> Result<()> {
+        use limits::*;
+        in_range("width", self.width, 1, MAX_IMAGE_SIDE)?;
+        in_range("height", self.height, 1, MAX_IMAGE_SIDE)?;
+        in_range("samples", self.samples, 1, MAX_SAMPLES)?;
+        in_range("max_depth", self.max_depth, 1, MAX_DEPTH)?;
+        in_range("light_samples", self.light_samples, 1, MAX_SAMPLES)?;
+        if !(self.ambient.is_finite() && self.ambient.min_element() >= 0.0) {
+            return Err(Error::Setting {
+                name: "ambient",
+                message: format!("must be finite and not negative, found {}", self.ambient),
+            });
+        }
+        if !(self.min_throughput.is_finite() && self.min_throughput >= 0.0) {
+            return Err(Error::Setting {
+                name: "min_throughput",
+                message: format!("must be finite and not negative, found {}", self.min_throughput),
+            });
+        }
+        let p = &self.photons;
+        in_range("global_photons", p.global_photons, 0, MAX_PHOTONS)?;
+        in_range("caustic_photons", p.caustic_photons, 0, MAX_PHOTONS)?;
+        in_range("global_k", p.global_k, 1, MAX_NEIGHBOURS)?;
+        in_range("caustic_k", p.caustic_k, 1, MAX_NEIGHBOURS)?;
+        in_range("gather_rays", p.gather_rays, 0, MAX_SAMPLES)?;
+        in_range("max_bounces", p.max_bounces, 1, MAX_DEPTH)?;
+        in_range("passes", p.sppm.passes, 1, MAX_PASSES)?;
+        in_range("pass_photons", p.sppm.photons_per_pass, 1, MAX_PHOTONS)?;
+        distance("global_radius", p.global_radius)?;
+        distance("caustic_radius", p.caustic_radius)?;
+        distance("sppm_radius", p.sppm.initial_radius)?;
+        if let Some(k) = p.cone_filter {
+            if !(k.is_finite() && k >= 1.0) {
+                return Err(Error::Setting {
+                    name: "cone_filter",
+                    message: format!("must be at least 1 (or none), found {k}"),
+                });
+            }
+        }
+        let alpha = p.sppm.alpha;
+        if !(alpha > 0.0 && alpha < 1.0) {
+            return Err(Error::Setting {
+                name: "sppm_alpha",
+                message: format!("must lie between 0 and 1 (exclusive), found {alpha}"),
+            });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_is_valid_and_every_limit_is_checked() {
+        assert!(RenderConfig::default().validate().is_ok());
+        type Breaks = fn(&mut RenderConfig);
+        let cases: [(&str, Breaks); 8] = [
+            ("samples", |c| c.samples = 0),
+            ("width", |c| c.width = limits::MAX_IMAGE_SIDE + 1),
+            ("max_depth", |c| c.max_depth = 0),
+            ("global_k", |c| c.photons.global_k = 0),
+            ("passes", |c| c.photons.sppm.passes = 0),
+            ("sppm_radius", |c| c.photons.sppm.initial_radius = Some(f32::NAN)),
+            ("sppm_alpha", |c| c.photons.sppm.alpha = 1.0),
+            ("ambient", |c| c.ambient = Vec3::splat(f32::INFINITY)),
+        ];
+        for (name, break_it) in cases {
+            let mut config = RenderConfig::default();
+            break_it(&mut config);
+            match config.validate() {
+                Err(Error::Setting { name: found, .. }) => assert_eq!(found, name),
+                other => panic!("{name}: expected a setting error, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn integrator_names_round_trip() {
+        for kind in IntegratorKind::ALL {
+            assert_eq!(kind.name().parse::<IntegratorKind>(), Ok(kind));
+        }
+        let err = "whit".parse::<IntegratorKind>().unwrap_err();
+        assert!(err.contains("choose from photon, sppm"), "{err}");
+    }
+
+    #[test]
+    fn radii_default_to_fractions_of_the_scene() {
+        let p = PhotonConfig::default();
+        assert_eq!(p.global_estimate(50.0).max_radius, 2.0);
+        assert_eq!(p.caustic_estimate(50.0).max_radius, 0.5);
+        assert_eq!(p.sppm_radius(50.0), 0.5);
+        let given = PhotonConfig { global_radius: Some(0.3), ..p };
+        assert_eq!(given.global_estimate(50.0).max_radius, 0.3);
+    }
+}

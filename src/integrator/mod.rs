@@ -1,0 +1,126 @@
+//! Integrators: what turns a scene into a film. Each lives in its own file
+//! and implements [`Integrator`]; [`create`] is where they are registered.
+//!
+//! Every pixel owns a random stream derived from its index, and tiles are
+//! written back by position, so an image is bit-identical whatever the
+//! number of threads.
+
+pub mod direct;
+pub mod path;
+pub mod photon;
+pub mod pixels;
+pub mod preview;
+pub mod sppm;
+pub mod whitted;
+
+use std::time::{Duration, Instant};
+
+use crate::accel::Intersector;
+use crate::config::{IntegratorKind, RenderConfig};
+use crate::error::Result;
+use crate::film::Film;
+use crate::query::{RayCount, SceneQuery};
+use crate::scene::Scene;
+
+/// Called as work gets done, with the units just finished (see
+/// [`Integrator::work_units`]); the command line drives its progress bar with it.
+pub type Progress<'p> = dyn Fn(u64) + Sync + 'p;
+
+/// What every integrator reads: the scene, its intersector and the config.
+#[derive(Clone, Copy)]
+pub struct Context<'a> {
+    /// First-interaction queries on the scene.
+    pub query: SceneQuery<'a>,
+    /// The settings (already validated).
+    pub config: &'a RenderConfig,
+    /// Length of the scene's bounding-box diagonal: default radii are fractions of it.
+    pub diagonal: f32,
+}
+
+impl<'a> Context<'a> {
+    /// The context for rendering `scene` through `accel` with `config`.
+    pub fn new(scene: &'a Scene, accel: &'a dyn Intersector, config: &'a RenderConfig) -> Self {
+        let b = scene.bounds();
+        Context { query: SceneQuery::new(scene, accel), config, diagonal: (b.max - b.min).length() }
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &'a Scene {
+        self.query.scene
+    }
+}
+
+/// A way of computing the image.
+pub trait Integrator: Sync {
+    /// Units of work [`Integrator::render`] reports through its progress
+    /// callback in all (pixels, unless the integrator says otherwise).
+    fn work_units(&self, config: &RenderConfig) -> u64 {
+        config.pixels()
+    }
+
+    /// Camera samples per pixel, as the summary line reports them.
+    fn samples_per_pixel(&self, config: &RenderConfig) -> u32 {
+        config.samples
+    }
+
+    /// Renders the whole image.
+    fn render(&self, ctx: &Context, progress: &Progress) -> Rendered;
+}
+
+/// The integrator of a kind: the one place integrators are registered.
+pub fn create(kind: IntegratorKind) -> Box<dyn Integrator> {
+    match kind {
+        IntegratorKind::Photon => Box::new(photon::PhotonMapping),
+        IntegratorKind::Sppm => Box::new(sppm::Sppm),
+        IntegratorKind::Whitted => Box::new(whitted::Whitted),
+        IntegratorKind::Path => Box::new(path::PathTracer),
+        IntegratorKind::Normals => Box::new(preview::Preview::Normals),
+        IntegratorKind::Depth => Box::new(preview::Preview::Depth),
+    }
+}
+
+/// Numbers for the summary line of a render.
+#[derive(Debug, Clone)]
+pub struct RenderStats {
+    /// Wall-clock time of the render.
+    pub elapsed: Duration,
+    /// Rays traced to their closest hit, and shadow rays.
+    pub rays: RayCount,
+    /// Camera samples per pixel (passes for progressive photon mapping).
+    pub samples_per_pixel: u32,
+    /// Photons emitted, if the integrator traced any.
+    pub photons_emitted: u64,
+    /// Lines worth telling the user (what photon maps were built or skipped).
+    pub notes: Vec<String>,
+}
+
+/// A finished render.
+#[derive(Debug, Clone)]
+pub struct Rendered {
+    /// The pixels.
+    pub film: Film,
+    /// Time and work.
+    pub stats: RenderStats,
+}
+
+/// Renders `scene` through `accel` as `config` says, after checking
+/// `config` ([`RenderConfig::validate`]). `progress` is called as work gets
+/// done; [`work_units`] says how much there is in all.
+pub fn render(
+    scene: &Scene,
+    accel: &dyn Intersector,
+    config: &RenderConfig,
+    progress: &Progress,
+) -> Result<Rendered> {
+    config.validate()?;
+    let start = Instant::now();
+    let integrator = create(config.integrator);
+    let mut rendered = integrator.render(&Context::new(scene, accel, config), progress);
+    rendered.stats.elapsed = start.elapsed();
+    Ok(rendered)
+}
+
+/// How many units of work [`render`] reports through `progress` in all.
+pub fn work_units(config: &RenderConfig) -> u64 {
+    create(config.integrator).work_units(config)
+}

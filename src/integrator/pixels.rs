@@ -1,0 +1,74 @@
+//! The parallel loop shared by the integrators that compute each pixel on
+//! its own (Whitted, photon mapping, path tracing, previews): square tiles
+//! handed to threads, one random stream per pixel, tiles written back by
+//! position, so the image never depends on the thread count.
+
+use rayon::prelude::*;
+
+use super::{Context, Progress};
+use crate::accel::Ray;
+use crate::film::{Components, Film};
+use crate::query::RayCount;
+use crate::sampling::{stratified, Rng};
+
+/// Side of the square tiles handed to threads.
+const TILE: u32 = 16;
+
+/// Computes every pixel with `pixel(x, y, rng, count)`, where `rng` is the
+/// pixel's own stream; returns the film and the rays counted. `progress`
+/// hears after each tile how many pixels it finished.
+pub fn render_pixels(
+    ctx: &Context,
+    progress: &Progress,
+    pixel: impl Fn(u32, u32, &mut Rng, &mut RayCount) -> Components + Sync,
+) -> (Film, RayCount) {
+    let (width, height) = (ctx.config.width, ctx.config.height);
+    let seed = ctx.config.seed;
+    let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
+        .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let rendered: Vec<((u32, u32), Vec<Components>, RayCount)> = tiles
+        .into_par_iter()
+        .map(|(x0, y0)| {
+            let mut count = RayCount::default();
+            let mut pixels = Vec::with_capacity((TILE * TILE) as usize);
+            for y in y0..(y0 + TILE).min(height) {
+                for x in x0..(x0 + TILE).min(width) {
+                    let mut rng = Rng::new(seed, (y as u64) * width as u64 + x as u64);
+                    pixels.push(pixel(x, y, &mut rng, &mut count));
+                }
+            }
+            progress(pixels.len() as u64);
+            ((x0, y0), pixels, count)
+        })
+        .collect();
+
+    let mut film = Film::new(width, height);
+    let mut total = RayCount::default();
+    for ((x0, y0), tile, count) in rendered {
+        total += count;
+        let tile_width = (x0 + TILE).min(width) - x0;
+        for (i, c) in tile.into_iter().enumerate() {
+            film.set(x0 + i as u32 % tile_width, y0 + i as u32 / tile_width, c);
+        }
+    }
+    (film, total)
+}
+
+/// Averages `radiance` over a pixel's camera rays: `config.samples`
+/// stratified, jittered samples (a single sample goes through the centre).
+pub fn average_over_pixel(
+    ctx: &Context,
+    (x, y): (u32, u32),
+    rng: &mut Rng,
+    mut radiance: impl FnMut(Ray, &mut Rng) -> Components,
+) -> Components {
+    let c = ctx.config;
+    let mut sum = Components::default();
+    for i in 0..c.samples {
+        let offset = if c.samples == 1 { glam::Vec2::splat(0.5) } else { stratified(i, c.samples, rng) };
+        let ray = ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height);
+        sum += radiance(ray, rng);
+    }
+    sum * (1.0 / c.samples as f32)
+}

@@ -1,0 +1,316 @@
+//! Stochastic progressive photon mapping (Hachisuka and Jensen 2009): the
+//! consistent photon mapper. Each pass
+//!
+//! 1. traces one jittered camera path per pixel through mirrors and glass to
+//!    its first diffuse or glossy surface (the pixel's *visible point*),
+//!    adding the direct light there by shadow rays;
+//! 2. traces a fresh batch of photons and lets every visible point within its
+//!    pixel's radius of a photon's landing place gather it;
+//! 3. shrinks each pixel's radius as photons arrive: with `N` photons so far
+//!    and `M` new ones, `N' = N + alpha M`, `R' = R sqrt(N' / (N + M))`, and
+//!    the gathered flux is scaled by `(R' / R)^2`.
+//!
+//! The radius goes to zero and the photon count to infinity, so the bias
+//! and the noise both vanish as passes go on, while memory stays bounded by
+//! one visible point per pixel and one batch of photons.
+//!
+//! Photons arriving straight from a light are not gathered (shadow rays
+//! already count that light); those that came through mirrors and glass only
+//! go to the `caustic` component, the rest to `global`. Direct light and
+//! lights seen through mirrors go to `direct`.
+
+mod grid;
+
+use std::f32::consts::PI;
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::direct::{direct_light, LightSampling};
+use super::{Context, Integrator, Progress, RenderStats, Rendered};
+use crate::bsdf::Bsdf;
+use crate::config::RenderConfig;
+use crate::film::{Components, Film};
+use crate::photon::{emit, Arrival};
+use crate::query::{Interaction, RayCount};
+use crate::sampling::Rng;
+use grid::Grid;
+
+/// The progressive photon-mapping integrator.
+pub struct Sppm;
+
+impl Integrator for Sppm {
+    fn work_units(&self, config: &RenderConfig) -> u64 {
+        config.pixels() * config.photons.sppm.passes as u64
+    }
+
+    fn samples_per_pixel(&self, config: &RenderConfig) -> u32 {
+        config.photons.sppm.passes
+    }
+
+    fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
+        let start = Instant::now();
+        let mut run = Progressive::new(ctx);
+        for _ in 0..ctx.config.photons.sppm.passes {
+            run.run_pass();
+            progress(ctx.config.pixels());
+        }
+        run.rendered(start.elapsed())
+    }
+}
+
+/// What a pixel carries from pass to pass.
+#[derive(Debug, Clone)]
+struct PixelState {
+    rng: Rng,
+    /// Sum over passes of the direct light and lights seen (by shadow rays).
+    direct: Vec3,
+    /// Gathered flux of caustic photons (`L S+ D`), scaled as the radius shrinks.
+    tau_caustic: Vec3,
+    /// Gathered flux of the other photons, scaled as the radius shrinks.
+    tau_global: Vec3,
+    /// Photons counted so far (`N`, fractional).
+    photons: f32,
+    /// Gathering radius.
+    radius: f32,
+}
+
+/// Where a pixel's camera path met its first diffuse or glossy surface in
+/// this pass, and with what weight.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct VisiblePoint {
+    p: Vec3,
+    /// Unit shading normal on the camera's side.
+    n: Vec3,
+    /// Unit direction back along the camera path.
+    wo: Vec3,
+    material: usize,
+    weight: Vec3,
+    /// The pixel's radius this pass.
+    radius: f32,
+}
+
+/// Photon flux one visible point gathered in one pass.
+#[derive(Debug, Clone, Copy, Default)]
+struct Gathered {
+    caustic: Vec3,
+    global: Vec3,
+    count: u32,
+}
+
+/// A progressive render in progress: run passes, read the image at any time.
+pub struct Progressive<'a> {
+    ctx: Context<'a>,
+    pixels: Vec<PixelState>,
+    passes: u32,
+    /// Rays traced so far (camera paths and shadow rays; photons not counted).
+    rays: RayCount,
+    /// Seconds spent tracing photons and gathering them.
+    photon_seconds: f64,
+}
+
+impl<'a> Progressive<'a> {
+    /// A render with no passes yet.
+    pub fn new(ctx: &Context<'a>) -> Self {
+        let config = ctx.config;
+        let radius = config.photons.sppm_radius(ctx.diagonal);
+        let pixels = (0..config.pixels())
+            .map(|i| PixelState {
+                rng: Rng::new(config.seed, i),
+                direct: Vec3::ZERO,
+                tau_caustic: Vec3::ZERO,
+                tau_global: Vec3::ZERO,
+                photons: 0.0,
+                radius,
+            })
+            .collect();
+        Progressive { ctx: *ctx, pixels, passes: 0, rays: RayCount::default(), photon_seconds: 0.0 }
+    }
+
+    /// Passes run so far.
+    pub fn passes(&self) -> u32 {
+        self.passes
+    }
+
+    /// Runs one pass: visible points, photons, radius update.
+    pub fn run_pass(&mut self) {
+        let ctx = self.ctx;
+        let width = ctx.config.width as usize;
+        let (points, counts): (Vec<Option<VisiblePoint>>, Vec<RayCount>) = self
+            .pixels
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, state)| {
+                let mut count = RayCount::default();
+                let (x, y) = ((i % width) as u32, (i / width) as u32);
+                (visible_point(&ctx, (x, y), state, &mut count), count)
+            })
+            .unzip();
+        for c in counts {
+            self.rays += c;
+        }
+
+        let start = Instant::now();
+        let gathered = self.gather_photons(&points);
+        self.photon_seconds += start.elapsed().as_secs_f64();
+
+        let alpha = ctx.config.photons.sppm.alpha;
+        self.pixels.par_iter_mut().zip(gathered).for_each(|(state, g)| {
+            if g.count == 0 {
+                return;
+            }
+            let m = g.count as f32;
+            let kept = state.photons + alpha * m;
+            let radius = state.radius * (kept / (state.photons + m)).sqrt();
+            let shrink = (radius / state.radius).powi(2);
+            state.tau_caustic = (state.tau_caustic + g.caustic) * shrink;
+            state.tau_global = (state.tau_global + g.global) * shrink;
+            state.photons = kept;
+            state.radius = radius;
+        });
+        self.passes += 1;
+    }
+
+    /// The image so far, with its work counts; `elapsed` is the time to report.
+    pub fn rendered(&self, elapsed: Duration) -> Rendered {
+        let sppm = &self.ctx.config.photons.sppm;
+        let emitted = self.passes as u64 * sppm.photons_per_pass as u64;
+        let note = format!(
+            "photons: {emitted} emitted in {} passes of {}, traced and gathered in {:.2} s",
+            sppm.passes, sppm.photons_per_pass, self.photon_seconds
+        );
+        let config = self.ctx.config;
+        let film = Film { width: config.width, height: config.height, pixels: self.components() };
+        let stats = RenderStats {
+            elapsed,
+            rays: self.rays,
+            samples_per_pixel: sppm.passes,
+            photons_emitted: emitted,
+            notes: vec![note],
+        };
+        Rendered { film, stats }
+    }
+
+    /// The image so far, one [`Components`] per pixel, row-major.
+    fn components(&self) -> Vec<Components> {
+        let passes = self.passes.max(1) as f32;
+        self.pixels
+            .iter()
+            .map(|s| {
+                let area = passes * PI * s.radius * s.radius;
+                Components {
+                    direct: s.direct / passes,
+                    specular: Vec3::ZERO,
+                    caustic: s.tau_caustic / area,
+                    global: s.tau_global / area,
+                }
+            })
+            .collect()
+    }
+
+    /// Traces this pass's photons and sums, per pixel, the flux its visible
+    /// point gathers. Splats are collected per chunk of photons and added in
+    /// photon order, so the sums do not depend on the thread count.
+    fn gather_photons(&self, points: &[Option<VisiblePoint>]) -> Vec<Gathered> {
+        let mut gathered = vec![Gathered::default(); points.len()];
+        let grid = Grid::new(points);
+        if grid.is_empty() {
+            return gathered;
+        }
+        let scene = self.ctx.scene();
+        let config = self.ctx.config;
+        // A different photon stream every pass.
+        let stream_seed = (config.seed ^ 0x5_99A1)
+            .wrapping_add((self.passes as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let chunks = emit(
+            &self.ctx.query,
+            config.photons.sppm.photons_per_pass,
+            config.photons.max_bounces,
+            stream_seed,
+            false,
+            Vec::new,
+            |splats: &mut Vec<(u32, Vec3, bool)>, arrival: &Arrival| {
+                if arrival.diffuse_bounces + arrival.specular_bounces == 0 {
+                    return true; // direct light: the shadow rays' part
+                }
+                let photon = &arrival.photon;
+                for &i in grid.near(photon.position) {
+                    let Some(vp) = &points[i as usize] else { continue };
+                    if (vp.p - photon.position).length_squared() > vp.radius * vp.radius
+                        || !photon.lights_surface(vp.n)
+                    {
+                        continue;
+                    }
+                    let f = scene.materials[vp.material].brdf(vp.n, photon.incoming, vp.wo);
+                    splats.push((i, vp.weight * f * photon.power, arrival.diffuse_bounces == 0));
+                }
+                true
+            },
+        );
+        for (i, flux, caustic) in chunks.into_iter().flatten() {
+            let g = &mut gathered[i as usize];
+            if caustic {
+                g.caustic += flux;
+            } else {
+                g.global += flux;
+            }
+            g.count += 1;
+        }
+        gathered
+    }
+}
+
+/// Follows one jittered camera path from pixel `(x, y)` to its visible
+/// point, adding the light that shadow rays and emitters give to
+/// `state.direct`. At a surface with both diffuse/glossy and
+/// mirror/glass parts the path stops or goes on at random, in proportion
+/// to their weights (the weight divided by that chance keeps it unbiased).
+fn visible_point(
+    ctx: &Context,
+    (x, y): (u32, u32),
+    state: &mut PixelState,
+    count: &mut RayCount,
+) -> Option<VisiblePoint> {
+    let (query, config) = (&ctx.query, ctx.config);
+    let rng = &mut state.rng;
+    let jitter = rng.uniform2();
+    let mut ray =
+        ctx.scene().camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, config.width, config.height);
+    let mut weight = Vec3::ONE;
+    for _ in 0..config.max_depth {
+        let sp = match query.first(&ray, count)? {
+            Interaction::Emitter { radiance, .. } => {
+                state.direct += weight * radiance;
+                return None;
+            }
+            Interaction::Surface(sp) => sp,
+        };
+        let m = query.material(&sp);
+        let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
+        if bsdf.has_smooth() {
+            let sampling = LightSampling::Stratified { samples: config.light_samples };
+            let direct = direct_light(query, &sp, &bsdf, sampling, rng, count) + m.diffuse * config.ambient;
+            state.direct += weight * direct;
+            let stop = if bsdf.has_specular() { bsdf.smooth_probability() } else { 1.0 };
+            if stop >= 1.0 || rng.uniform() < stop {
+                return Some(VisiblePoint {
+                    p: sp.p,
+                    n: sp.ns,
+                    wo: bsdf.wo(),
+                    material: sp.material,
+                    weight: weight / stop,
+                    radius: state.radius,
+                });
+            }
+            weight /= 1.0 - stop;
+        }
+        let s = bsdf.sample_specular(rng)?;
+        weight *= s.weight;
+        if weight == Vec3::ZERO {
+            return None;
+        }
+        ray = sp.spawn(s.wi);
+    }
+    None
+}

@@ -1,0 +1,114 @@
+//! Whitted-style ray tracing (Whitted 1980) with physical units: direct light
+//! through shadow rays, perfect mirror reflection, and refraction through
+//! smooth dielectrics split by the exact Fresnel equations, recursively.
+//!
+//! It sees light that reaches the eye through specular chains from diffuse or
+//! glossy surfaces that a light shines on directly. Light that bounces
+//! diffusely first (indirect light) and light focused by specular surfaces
+//! onto diffuse ones (caustics) are the photon maps' job: the photon-mapping
+//! integrator runs this same recursion with [`SurfaceLight`] from its maps.
+
+use glam::Vec3;
+
+use super::direct::{direct_light, LightSampling};
+use super::pixels::{average_over_pixel, render_pixels};
+use super::{Context, Integrator, Progress, RenderStats, Rendered};
+use crate::accel::Ray;
+use crate::bsdf::Bsdf;
+use crate::film::Components;
+use crate::query::{Interaction, RayCount, SurfacePoint};
+use crate::sampling::Rng;
+
+/// The Whitted integrator.
+pub struct Whitted;
+
+impl Integrator for Whitted {
+    fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
+        let tracer = WhittedTracer { ctx, surface_light: None };
+        tracer.render(progress, 0, Vec::new())
+    }
+}
+
+/// Light the recursion cannot find by itself, added at every diffuse or
+/// glossy surface it reaches (the photon maps' caustics and indirect light).
+pub trait SurfaceLight: Sync {
+    /// The caustic and the indirect radiance leaving `sp` towards the viewer.
+    /// `throughput` is the weight of the path from the camera.
+    fn at(
+        &self,
+        sp: &SurfacePoint,
+        bsdf: &Bsdf,
+        throughput: Vec3,
+        rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> (Vec3, Vec3);
+}
+
+/// The recursion over one scene, with the surface light an integrator adds.
+pub struct WhittedTracer<'a> {
+    /// Scene, intersector and settings.
+    pub ctx: &'a Context<'a>,
+    /// Caustics and indirect light, if the integrator has them.
+    pub surface_light: Option<&'a dyn SurfaceLight>,
+}
+
+impl WhittedTracer<'_> {
+    /// Renders every pixel; `photons_emitted` and `notes` go to the stats.
+    pub fn render(&self, progress: &Progress, photons_emitted: u64, notes: Vec<String>) -> Rendered {
+        let (film, rays) = render_pixels(self.ctx, progress, |x, y, rng, count| {
+            average_over_pixel(self.ctx, (x, y), rng, |ray, rng| {
+                self.radiance(&ray, 0, Vec3::ONE, rng, count)
+            })
+        });
+        let stats = RenderStats {
+            elapsed: Default::default(),
+            rays,
+            samples_per_pixel: self.ctx.config.samples,
+            photons_emitted,
+            notes,
+        };
+        Rendered { film, stats }
+    }
+
+    /// Radiance arriving along `ray`, split into components. `depth` counts
+    /// the specular bounces so far; `throughput` is what the caller will
+    /// multiply the result by (for the cut-off).
+    pub fn radiance(
+        &self,
+        ray: &Ray,
+        depth: u32,
+        throughput: Vec3,
+        rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> Components {
+        let query = &self.ctx.query;
+        let sp = match query.first(ray, count) {
+            None => return Components::default(),
+            Some(Interaction::Emitter { radiance, .. }) => return Components::emitted(radiance, depth),
+            Some(Interaction::Surface(sp)) => sp,
+        };
+        let config = self.ctx.config;
+        let m = query.material(&sp);
+        let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
+
+        let mut out = Components::default();
+        if bsdf.has_smooth() {
+            let sampling = LightSampling::Stratified { samples: config.light_samples };
+            out.direct = direct_light(query, &sp, &bsdf, sampling, rng, count) + m.diffuse * config.ambient;
+            if let Some(extra) = self.surface_light {
+                (out.caustic, out.global) = extra.at(&sp, &bsdf, throughput, rng, count);
+            }
+        }
+        if depth + 1 >= config.max_depth {
+            return out;
+        }
+        for (weight, dir) in bsdf.specular_branches() {
+            let carried = throughput * weight;
+            if carried.max_element() < config.min_throughput {
+                continue;
+            }
+            out.specular += weight * self.radiance(&sp.spawn(dir), depth + 1, carried, rng, count).total();
+        }
+        out
+    }
+}
