@@ -204,7 +204,7 @@ impl<'a> Bsdf<'a> {
     /// reflected (always on total internal reflection). Fresnel chooses with
     /// exactly its own weights, so `weight` needs no rescaling. Draws a
     /// number only when there is a choice.
-    pub(crate) fn dielectric(&self, weight: Vec3, rng: &mut Rng) -> BsdfSample {
+    fn dielectric(&self, weight: Vec3, rng: &mut Rng) -> BsdfSample {
         let (kr, refracted) = self.sp.refract(self.dir, self.material.ior);
         match refracted {
             Some(wi) if rng.uniform() >= kr => {

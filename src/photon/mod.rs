@@ -22,9 +22,10 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::accel::Ray;
+use crate::bsdf::{russian_roulette, Bsdf};
 use crate::config::PhotonConfig;
 use crate::query::{Interaction, RayCount, SceneQuery};
-use crate::sampling::{around, cosine_hemisphere, phong_lobe, Rng};
+use crate::sampling::{around, Rng};
 use crate::scene::Scene;
 pub use map::{Estimate, Photon, PhotonMap};
 
@@ -343,62 +344,21 @@ fn trace_photon(
             }
         }
 
-        // Russian roulette (the seed report's table, with the four parts of
-        // our materials): continue with probability max(total reflectance),
-        // pick a part in proportion to its reflectance summed over channels,
-        // and rescale the power per channel so the estimate stays unbiased.
-        let parts = [m.diffuse, m.specular, m.mirror, m.transmittance];
-        let sums = parts.map(|c| c.element_sum());
-        let all: f32 = sums.iter().sum();
-        let survive = m.total_reflectance().max_element().min(1.0);
+        // Russian roulette on the surface's albedo (the seed report's table,
+        // with the four lobes of our materials): the photon goes on with
+        // probability max(albedo), in a lobe chosen in proportion to its
+        // reflectance by the same uniform; dividing by that probability keeps
+        // the power unbiased per channel.
+        let bsdf = Bsdf::new(m, &sp, dir);
         let xi = rng.uniform();
-        if all <= 0.0 || xi >= survive {
-            return; // absorbed
+        let Some(q) = russian_roulette(bsdf.albedo().max_element().min(1.0), xi) else { return };
+        let Some(s) = bsdf.sample(xi / q, rng) else { return };
+        if s.kind.is_specular() {
+            specular_bounces += 1;
+        } else {
+            diffuse_bounces += 1;
         }
-        let mut pick = xi / survive * all;
-        let part = (0..4).find(|&i| {
-            if pick < sums[i] {
-                true
-            } else {
-                pick -= sums[i];
-                false
-            }
-        });
-        let part = part.unwrap_or(3 - sums.iter().rev().position(|&s| s > 0.0).unwrap_or(0));
-        let probability = survive * sums[part] / all;
-        let new_dir = match part {
-            0 => {
-                diffuse_bounces += 1;
-                power *= parts[0] / probability; // f cos / pdf = diffuse for cosine sampling
-                around(sp.ns, cosine_hemisphere(rng.uniform2()))
-            }
-            1 => {
-                diffuse_bounces += 1;
-                // Sample the normalised Phong lobe around the mirror direction
-                // (pdf (e+1)/(2 pi) cos^e); f cos / pdf = specular (e+2)/(e+1) cos.
-                let e = m.phong_exponent;
-                let d = around(sp.reflect(dir), phong_lobe(rng.uniform2(), e));
-                let cos = d.dot(sp.ns);
-                if cos <= 0.0 {
-                    return;
-                }
-                power *= parts[1] * ((e + 2.0) / (e + 1.0) * cos) / probability;
-                d
-            }
-            2 => {
-                specular_bounces += 1;
-                power *= parts[2] / probability;
-                sp.reflect(dir)
-            }
-            _ => {
-                specular_bounces += 1;
-                power *= parts[3] / probability;
-                crate::bsdf::Bsdf::new(m, &sp, dir).dielectric(Vec3::ONE, rng).wi
-            }
-        };
-        if new_dir.dot(sp.ng) == 0.0 {
-            return;
-        }
-        ray = sp.spawn(new_dir);
+        power *= s.weight / q;
+        ray = sp.spawn(s.wi);
     }
 }
