@@ -43,7 +43,7 @@ fn indirect_light_converges_to_the_exact_answer() {
     let exact = albedo / PI * 100.0 * albedo / ((1.0 - albedo) * common::mesh_area(&scene));
     let (mut errors, mut means) = (Vec::new(), Vec::new());
     for passes in [4, 16, 64] {
-        let global = sppm(&scene, passes).film.image("global").unwrap();
+        let global = sppm(&scene, passes).film.image(caustix::film::Aov::Indirect);
         let n = global.pixels.len() as f32;
         let mean = global.pixels.iter().map(|p| p.x).sum::<f32>() / n;
         let error = global.pixels.iter().map(|p| (p.x / exact - 1.0).abs()).sum::<f32>() / n;
@@ -73,7 +73,7 @@ fn the_image_does_not_depend_on_the_thread_count() {
         pool.install(|| sppm(&scene, 3)).film.pixels
     };
     let one = with(1);
-    assert!(one.iter().any(|c| c.global.x > 0.0), "photons must reach the pixels");
+    assert!(one.iter().any(|c| c.indirect.x > 0.0), "photons must reach the pixels");
     assert_eq!(one, with(2));
     assert_eq!(one, with(3));
 }

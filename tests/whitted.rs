@@ -82,14 +82,17 @@ fn same_image_bit_for_bit_with_one_thread_and_with_many() {
         pool.install(|| render(&scene, &accel, &settings, &|_| {})).unwrap().film.pixels
     };
     let one = with(1);
-    assert!(one.iter().any(|c| c.direct != Vec3::ZERO) && one.iter().any(|c| c.specular != Vec3::ZERO));
-    assert!(one.iter().any(|c| c.caustic != Vec3::ZERO) && one.iter().any(|c| c.global != Vec3::ZERO));
+    // Every component has something, so each is compared below.
+    assert!(one.iter().any(|c| c.direct != Vec3::ZERO) && one.iter().any(|c| c.emission != Vec3::ZERO));
+    assert!(one.iter().any(|c| c.caustic != Vec3::ZERO) && one.iter().any(|c| c.indirect != Vec3::ZERO));
     assert_eq!(one, with(4));
     assert_eq!(one, with(3));
 }
 
 /// A mirror facing a lit diffuse quad: what the camera sees in the mirror is
-/// the quad's radiance times the mirror's reflectance.
+/// the quad's radiance times the mirror's reflectance. It is direct light
+/// (light, diffuse wall, mirror, eye), the albedo is the wall's seen in the
+/// mirror, and the depth is the mirror's.
 #[test]
 fn a_mirror_shows_what_it_faces_times_its_reflectance() {
     let scene_text = r#"
@@ -133,13 +136,20 @@ fn a_mirror_shows_what_it_faces_times_its_reflectance() {
                 let d = to_light.length();
                 let wall = 0.8 / PI * 100.0 / (4.0 * PI) * (-to_light.z / d) / (d * d);
                 let c = rendered.film.pixels[(y * 8 + x) as usize];
-                assert_eq!(c.direct, Vec3::ZERO, "a pure mirror has no direct part");
+                assert_eq!((c.emission, c.caustic, c.indirect), (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO));
                 assert!(
-                    (c.specular.x - 0.6 * wall).abs() < 1e-4 * wall,
+                    (c.direct.x - 0.6 * wall).abs() < 1e-4 * wall,
                     "({x}, {y}): {} vs {}",
-                    c.specular.x,
+                    c.direct.x,
                     0.6 * wall
                 );
+                assert!(c.albedo.abs_diff_eq(Vec3::splat(0.6 * 0.8), 1e-6), "{}", c.albedo);
+                assert!(
+                    (c.normal + 0.6 * Vec3::Z).length() < 1e-3,
+                    "the wall faces the mirror (-z): {}",
+                    c.normal
+                );
+                assert!((c.depth - (p_mirror - ray.origin).length()).abs() < 1e-4, "{}", c.depth);
             }
         }
     }
@@ -200,18 +210,27 @@ fn cli_writes_each_requested_component() {
         "-o".as_ref(),
         out.as_os_str(),
         "--aov".as_ref(),
-        "direct,specular".as_ref(),
+        "direct,emission,albedo,depth".as_ref(),
         "--threads".as_ref(),
         "1".as_ref(),
     ]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
     let load = |name: &str| caustix::Image::load(&dir.path().join(name)).unwrap();
-    let (total, direct, specular) = (load("quad.exr"), load("quad-direct.exr"), load("quad-specular.exr"));
-    assert!(specular.pixels.iter().all(|p| *p == Vec3::ZERO), "nothing specular in a diffuse scene");
-    assert_eq!(total, direct);
+    let (total, direct, emission) = (load("quad.exr"), load("quad-direct.exr"), load("quad-emission.exr"));
+    assert!(emission.pixels.iter().all(|p| *p == Vec3::ZERO), "no light is in view");
+    assert_eq!(total, direct, "a diffuse quad under a point light: all its light is direct");
+    // The quad (diffuse 0.8, common/quad.toml) covers the middle 32x32 pixels, 5 units away.
+    let (albedo, depth) = (load("quad-albedo.exr"), load("quad-depth.exr"));
+    assert!(albedo.get(32, 32).abs_diff_eq(Vec3::splat(0.8), 1e-6) && albedo.get(0, 0) == Vec3::ZERO);
+    assert!(
+        (depth.get(31, 31).x - 5.0).abs() < 0.01 && depth.get(0, 0) == Vec3::ZERO,
+        "{}",
+        depth.get(31, 31)
+    );
     assert!(stderr.contains("on 1 threads"), "{stderr}");
     let bad = caustix(&["render".as_ref(), scene.as_os_str(), "--aov".as_ref(), "glow".as_ref()]);
-    assert_eq!(bad.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("unknown component `glow`"));
+    assert_eq!(bad.status.code(), Some(2));
+    let says = String::from_utf8_lossy(&bad.stderr);
+    assert!(says.contains("invalid value 'glow'") && says.contains("indirect"), "{says}");
 }

@@ -12,70 +12,154 @@ use glam::Vec3;
 use crate::error::Result;
 pub use image::Image;
 
-/// Radiance at a pixel split by how the light got there. The final image is
-/// the sum; each part can be written as its own image (an AOV).
+/// One camera sample (or one pixel, averaged): the light that reaches the
+/// camera split by the path it took, plus the geometry a denoiser wants.
+/// Every integrator fills these with the same meaning. In Heckbert's
+/// notation, with `E` the eye, `L` a light, `S` a mirror or glass bounce
+/// and `D` a diffuse or glossy one:
+///
+/// - `emission`: lights seen directly or through mirrors and glass (`L S* E`);
+/// - `direct`: light straight from a light, scattered once by a diffuse or
+///   glossy surface (`L D S* E`);
+/// - `caustic`: light focused by mirrors and glass onto a diffuse or glossy
+///   surface (`L S+ D S* E`);
+/// - `indirect`: light scattered by two or more diffuse or glossy surfaces
+///   (`L .* D .* D S* E`), and the constant ambient term;
+/// - `albedo` and `normal`: the diffuse-plus-glossy reflectance and the
+///   shading normal (towards the camera) of the first diffuse or glossy
+///   surface, seen through mirrors and glass (weighted by them);
+/// - `depth`: distance from the camera to the first surface (0 where the
+///   camera ray leaves the scene).
+///
+/// The final image is `emission + direct + caustic + indirect`.
 #[derive(Debug, Default, Clone, Copy, PartialEq)]
-pub struct Components {
-    /// Lights seen directly, and direct light at the first surface hit.
+pub struct Sample {
+    /// Lights seen directly or through mirrors and glass.
+    pub emission: Vec3,
+    /// Direct light at diffuse and glossy surfaces.
     pub direct: Vec3,
-    /// Everything reaching the camera through mirror reflection or refraction.
-    pub specular: Vec3,
-    /// Caustics at the first surface hit: light focused onto it by mirrors
-    /// and glass (the caustic map).
+    /// Caustics at diffuse and glossy surfaces.
     pub caustic: Vec3,
-    /// Indirect light at the first surface hit: light that bounced off a
-    /// diffuse surface before (the global map, or final gathering).
-    pub global: Vec3,
+    /// Light that bounced diffusely more than once.
+    pub indirect: Vec3,
+    /// Reflectance of the first diffuse or glossy surface.
+    pub albedo: Vec3,
+    /// Shading normal of the first diffuse or glossy surface.
+    pub normal: Vec3,
+    /// Distance to the first surface.
+    pub depth: f32,
 }
 
-impl Components {
-    /// Names accepted by `--aov`, in output order.
-    pub const NAMES: [&'static str; 5] = ["direct", "specular", "caustic", "global", "final"];
+/// An image a film can make: the final image or one component of it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Aov {
+    /// The final image: the sum of the four light components.
+    Final,
+    /// [`Sample::emission`].
+    Emission,
+    /// [`Sample::direct`].
+    Direct,
+    /// [`Sample::caustic`].
+    Caustic,
+    /// [`Sample::indirect`].
+    Indirect,
+    /// [`Sample::albedo`].
+    Albedo,
+    /// [`Sample::normal`], as stored: components in `[-1, 1]`.
+    Normal,
+    /// [`Sample::depth`], in scene units, in all three channels.
+    Depth,
+}
 
-    /// The sum of all parts.
+impl Aov {
+    /// Every image, with the name `--aov` and file names use.
+    pub const ALL: [(&'static str, Aov); 8] = [
+        ("final", Aov::Final),
+        ("emission", Aov::Emission),
+        ("direct", Aov::Direct),
+        ("caustic", Aov::Caustic),
+        ("indirect", Aov::Indirect),
+        ("albedo", Aov::Albedo),
+        ("normal", Aov::Normal),
+        ("depth", Aov::Depth),
+    ];
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        Aov::ALL.iter().find(|(_, a)| *a == self).map_or("final", |(n, _)| n)
+    }
+}
+
+impl std::str::FromStr for Aov {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        Aov::ALL.iter().find(|(n, _)| *n == s).map(|(_, a)| *a).ok_or_else(|| {
+            let names: Vec<&str> = Aov::ALL.iter().map(|(n, _)| *n).collect();
+            format!("unknown component `{s}`; choose from {}", names.join(", "))
+        })
+    }
+}
+
+impl Sample {
+    /// The final image's value: all the light.
     pub fn total(&self) -> Vec3 {
-        self.direct + self.specular + self.caustic + self.global
+        self.emission + self.direct + self.caustic + self.indirect
     }
 
-    /// Radiance emitted by a light and seen after `depth` specular bounces.
-    pub fn emitted(radiance: Vec3, depth: u32) -> Components {
-        if depth == 0 {
-            Components { direct: radiance, ..Default::default() }
-        } else {
-            Components { specular: radiance, ..Default::default() }
+    /// The value of one image.
+    pub fn get(&self, aov: Aov) -> Vec3 {
+        match aov {
+            Aov::Final => self.total(),
+            Aov::Emission => self.emission,
+            Aov::Direct => self.direct,
+            Aov::Caustic => self.caustic,
+            Aov::Indirect => self.indirect,
+            Aov::Albedo => self.albedo,
+            Aov::Normal => self.normal,
+            Aov::Depth => Vec3::splat(self.depth),
         }
     }
 
-    /// The part called `name` (one of [`Components::NAMES`]).
-    pub fn get(&self, name: &str) -> Option<Vec3> {
-        match name {
-            "direct" => Some(self.direct),
-            "specular" => Some(self.specular),
-            "caustic" => Some(self.caustic),
-            "global" => Some(self.global),
-            "final" => Some(self.total()),
-            _ => None,
+    /// What this sample, met at the end of a mirror or glass bounce of
+    /// `weight`, adds to the path before it: its light and its first diffuse
+    /// surface's albedo scaled by the bounce (the normal by its mean), its
+    /// depth left out (the depth is the camera ray's own).
+    pub fn through(&self, weight: Vec3) -> Sample {
+        Sample {
+            emission: self.emission * weight,
+            direct: self.direct * weight,
+            caustic: self.caustic * weight,
+            indirect: self.indirect * weight,
+            albedo: self.albedo * weight,
+            normal: self.normal * (weight.element_sum() / 3.0),
+            depth: 0.0,
         }
     }
 }
 
-impl AddAssign for Components {
-    fn add_assign(&mut self, o: Components) {
+impl AddAssign for Sample {
+    fn add_assign(&mut self, o: Sample) {
+        self.emission += o.emission;
         self.direct += o.direct;
-        self.specular += o.specular;
         self.caustic += o.caustic;
-        self.global += o.global;
+        self.indirect += o.indirect;
+        self.albedo += o.albedo;
+        self.normal += o.normal;
+        self.depth += o.depth;
     }
 }
 
-impl Mul<f32> for Components {
-    type Output = Components;
-    fn mul(self, k: f32) -> Components {
-        Components {
+impl Mul<f32> for Sample {
+    type Output = Sample;
+    fn mul(self, k: f32) -> Sample {
+        Sample {
+            emission: self.emission * k,
             direct: self.direct * k,
-            specular: self.specular * k,
             caustic: self.caustic * k,
-            global: self.global * k,
+            indirect: self.indirect * k,
+            albedo: self.albedo * k,
+            normal: self.normal * k,
+            depth: self.depth * k,
         }
     }
 }
@@ -88,44 +172,43 @@ pub struct Film {
     /// Height in pixels.
     pub height: u32,
     /// One value per pixel.
-    pub pixels: Vec<Components>,
+    pub pixels: Vec<Sample>,
 }
 
 impl Film {
     /// A black film.
     pub fn new(width: u32, height: u32) -> Film {
-        Film { width, height, pixels: vec![Components::default(); width as usize * height as usize] }
+        Film { width, height, pixels: vec![Sample::default(); width as usize * height as usize] }
     }
 
     /// Sets the pixel at column `x`, row `y`.
-    pub fn set(&mut self, x: u32, y: u32, value: Components) {
+    pub fn set(&mut self, x: u32, y: u32, value: Sample) {
         self.pixels[(y * self.width + x) as usize] = value;
     }
 
-    /// The image of one component (`"final"` for the whole).
-    pub fn image(&self, name: &str) -> Option<Image> {
-        let pixels = self.pixels.iter().map(|c| c.get(name)).collect::<Option<Vec<Vec3>>>()?;
-        Some(Image { width: self.width, height: self.height, pixels })
+    /// One image of the film.
+    pub fn image(&self, aov: Aov) -> Image {
+        Image {
+            width: self.width,
+            height: self.height,
+            pixels: self.pixels.iter().map(|p| p.get(aov)).collect(),
+        }
     }
 
-    /// The whole image: every component summed.
+    /// The final image.
     pub fn beauty(&self) -> Image {
-        self.image("final").expect("final is a component")
+        self.image(Aov::Final)
     }
 
-    /// Writes the whole image to `output`, and each component in `aovs` beside
-    /// it as `NAME-COMPONENT.EXT`; returns the component files written.
-    /// `exposure` applies to PNG output (see [`Image::save`]).
-    pub fn write(&self, output: &Path, aovs: &[String], exposure: f32) -> Result<Vec<PathBuf>> {
+    /// Writes the final image to `output`, and each of `aovs` beside it as
+    /// `NAME-COMPONENT.EXT`; returns the component files written. `exposure`
+    /// applies to PNG output (see [`Image::save`]).
+    pub fn write(&self, output: &Path, aovs: &[Aov], exposure: f32) -> Result<Vec<PathBuf>> {
         self.beauty().save(output, exposure)?;
         let mut written = Vec::new();
-        for name in aovs {
-            let path = aov_path(output, name);
-            let image = self.image(name).ok_or_else(|| crate::Error::Setting {
-                name: "aov",
-                message: format!("`{name}` is not a component; choose from {}", Components::NAMES.join(", ")),
-            })?;
-            image.save(&path, exposure)?;
+        for &aov in aovs {
+            let path = aov_path(output, aov.name());
+            self.image(aov).save(&path, exposure)?;
             written.push(path);
         }
         Ok(written)

@@ -19,7 +19,7 @@ use super::pixels::{average_over_pixel, render_pixels};
 use super::{Context, Integrator, Progress, RenderStats, Rendered};
 use crate::accel::Ray;
 use crate::bsdf::{russian_roulette, Bsdf};
-use crate::film::Components;
+use crate::film::Sample;
 use crate::query::{Interaction, RayCount};
 use crate::sampling::Rng;
 
@@ -42,24 +42,55 @@ impl Integrator for PathTracer {
     }
 }
 
-/// Radiance along a camera ray. What the camera's first vertex receives
-/// straight from lights goes to `direct`, everything else to `global`.
-fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Components {
-    let query = &ctx.query;
-    let mut out = Components::default();
-    let mut throughput = Vec3::ONE;
-    // Solid-angle pdf of the last non-delta bounce, for MIS on lights it
-    // finds; `None` after the camera or a delta bounce (no MIS then).
-    let mut last_pdf: Option<f32> = None;
-    // Direct light: emission seen by the camera, or reached from the first
-    // vertex (by its light sample, or by its continuation ray).
-    let add = |out: &mut Components, l: Vec3, direct: bool| {
-        if direct {
-            out.direct += l
-        } else {
-            out.global += l
+/// Which component light found at a path vertex belongs to (see [`Sample`]),
+/// from the diffuse or glossy vertices the path has passed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PathClass {
+    /// Only mirrors and glass since the camera.
+    Specular,
+    /// One diffuse or glossy vertex, and nothing after it yet.
+    JustScattered,
+    /// One diffuse or glossy vertex, then mirrors or glass.
+    SpecularAfterScatter,
+    /// Two or more diffuse or glossy vertices.
+    Indirect,
+}
+
+impl PathClass {
+    /// The component that light from a light source, reached by the path
+    /// as it is now, adds to.
+    fn slot(self, out: &mut Sample) -> &mut Vec3 {
+        match self {
+            PathClass::Specular => &mut out.emission,
+            PathClass::JustScattered => &mut out.direct,
+            PathClass::SpecularAfterScatter => &mut out.caustic,
+            PathClass::Indirect => &mut out.indirect,
         }
-    };
+    }
+
+    /// The class after a bounce of the given kind.
+    fn after(self, specular: bool) -> PathClass {
+        match (self, specular) {
+            (PathClass::Specular, true) => PathClass::Specular,
+            (PathClass::Specular, false) => PathClass::JustScattered,
+            (PathClass::JustScattered | PathClass::SpecularAfterScatter, true) => {
+                PathClass::SpecularAfterScatter
+            }
+            _ => PathClass::Indirect,
+        }
+    }
+}
+
+/// Radiance along a camera ray, each part in its component.
+fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Sample {
+    let query = &ctx.query;
+    let mut out = Sample::default();
+    let mut throughput = Vec3::ONE;
+    let mut class = PathClass::Specular;
+    let mut found_surface = false; // the first diffuse or glossy one, for albedo and normal
+                                   // Solid-angle pdf of the last non-delta bounce, for MIS on lights it
+                                   // finds; `None` after the camera or a delta bounce (no MIS then).
+    let mut last_pdf: Option<f32> = None;
     for depth in 0..ctx.config.max_depth {
         let sp = match query.first(&ray, count) {
             None => return out,
@@ -71,21 +102,31 @@ fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) ->
                         p_bsdf / (p_bsdf + p_light)
                     }
                 };
-                add(&mut out, throughput * radiance * weight, depth <= 1);
+                *class.slot(&mut out) += throughput * radiance * weight;
                 return out;
             }
             Some(Interaction::Surface(sp)) => sp,
         };
+        if depth == 0 {
+            out.depth = sp.t * ray.dir.length();
+        }
         let bsdf = Bsdf::new(query.material(&sp), &sp, ray.dir.normalize());
         if bsdf.has_smooth() {
+            if !found_surface {
+                found_surface = true;
+                let m = bsdf.material();
+                (out.albedo, out.normal) = (throughput * (m.diffuse + m.specular), sp.ns);
+            }
+            // A light sample makes the path one diffuse vertex longer.
             let light = direct_light(query, &sp, &bsdf, LightSampling::MultipleImportance, rng, count);
-            add(&mut out, throughput * light, depth == 0);
+            *class.after(false).slot(&mut out) += throughput * light;
         }
 
         // Continue by sampling the BSDF.
         let Some(s) = bsdf.sample(rng.uniform(), rng) else { return out };
         throughput *= s.weight;
         last_pdf = s.pdf;
+        class = class.after(s.kind.is_specular());
         if depth >= 3 {
             match russian_roulette(throughput.max_element().clamp(0.05, 1.0), rng.uniform()) {
                 Some(q) => throughput /= q,

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::{Context, Progress};
 use crate::accel::Ray;
-use crate::film::{Components, Film};
+use crate::film::{Film, Sample};
 use crate::query::RayCount;
 use crate::sampling::{stratified, Rng};
 
@@ -20,14 +20,14 @@ const TILE: u32 = 16;
 pub fn render_pixels(
     ctx: &Context,
     progress: &Progress,
-    pixel: impl Fn(u32, u32, &mut Rng, &mut RayCount) -> Components + Sync,
+    pixel: impl Fn(u32, u32, &mut Rng, &mut RayCount) -> Sample + Sync,
 ) -> (Film, RayCount) {
     let (width, height) = (ctx.config.width, ctx.config.height);
     let seed = ctx.config.seed;
     let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
         .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
-    let rendered: Vec<((u32, u32), Vec<Components>, RayCount)> = tiles
+    let rendered: Vec<((u32, u32), Vec<Sample>, RayCount)> = tiles
         .into_par_iter()
         .map(|(x0, y0)| {
             let mut count = RayCount::default();
@@ -61,10 +61,10 @@ pub fn average_over_pixel(
     ctx: &Context,
     (x, y): (u32, u32),
     rng: &mut Rng,
-    mut radiance: impl FnMut(Ray, &mut Rng) -> Components,
-) -> Components {
+    mut radiance: impl FnMut(Ray, &mut Rng) -> Sample,
+) -> Sample {
     let c = ctx.config;
-    let mut sum = Components::default();
+    let mut sum = Sample::default();
     for i in 0..c.samples {
         let offset = if c.samples == 1 { glam::Vec2::splat(0.5) } else { stratified(i, c.samples, rng) };
         let ray = ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height);

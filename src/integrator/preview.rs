@@ -5,7 +5,7 @@ use glam::Vec3;
 use super::pixels::render_pixels;
 use super::{Context, Integrator, Progress, RenderStats, Rendered};
 use crate::config::RenderConfig;
-use crate::film::Components;
+use crate::film::Sample;
 
 /// Which preview.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -30,15 +30,16 @@ impl Integrator for Preview {
         let far = (b.min - scene.camera.eye).length().max((b.max - scene.camera.eye).length());
         let (film, rays) = render_pixels(ctx, progress, |x, y, _, count| {
             let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5, c.width, c.height);
-            let Some(hit) = ctx.query.first_hit(&ray, count) else { return Components::default() };
-            let colour = match self {
+            let Some(hit) = ctx.query.first_hit(&ray, count) else { return Sample::default() };
+            let n = scene.meshes[hit.geom_id as usize].shading_normal(hit.prim_id, hit.u, hit.v);
+            let picture = match self {
                 Preview::Depth => Vec3::splat((1.0 - hit.t / far).clamp(0.0, 1.0)),
-                Preview::Normals => {
-                    let n = scene.meshes[hit.geom_id as usize].shading_normal(hit.prim_id, hit.u, hit.v);
-                    0.5 * (n + Vec3::ONE) * (0.3 + 0.7 * n.dot(-ray.dir).abs())
-                }
+                Preview::Normals => 0.5 * (n + Vec3::ONE) * (0.3 + 0.7 * n.dot(-ray.dir).abs()),
             };
-            Components { direct: colour, ..Default::default() }
+            // The picture is what the final image shows; it is not light, so
+            // it goes to the component that is passed on as it is.
+            let normal = if n.dot(ray.dir) > 0.0 { -n } else { n };
+            Sample { emission: picture, normal, depth: hit.t, ..Sample::default() }
         });
         let stats = RenderStats {
             elapsed: Default::default(),

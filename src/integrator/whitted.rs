@@ -15,7 +15,7 @@ use super::pixels::{average_over_pixel, render_pixels};
 use super::{Context, Integrator, Progress, RenderStats, Rendered};
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
-use crate::film::Components;
+use crate::film::Sample;
 use crate::query::{Interaction, RayCount, SurfacePoint};
 use crate::sampling::Rng;
 
@@ -70,9 +70,10 @@ impl WhittedTracer<'_> {
         Rendered { film, stats }
     }
 
-    /// Radiance arriving along `ray`, split into components. `depth` counts
-    /// the specular bounces so far; `throughput` is what the caller will
-    /// multiply the result by (for the cut-off).
+    /// Radiance arriving along `ray`, split into components (see
+    /// [`Sample`]). `depth` counts the specular bounces so far;
+    /// `throughput` is what the caller will multiply the result by (for the
+    /// cut-off).
     pub fn radiance(
         &self,
         ray: &Ray,
@@ -80,24 +81,30 @@ impl WhittedTracer<'_> {
         throughput: Vec3,
         rng: &mut Rng,
         count: &mut RayCount,
-    ) -> Components {
+    ) -> Sample {
         let query = &self.ctx.query;
         let sp = match query.first(ray, count) {
-            None => return Components::default(),
-            Some(Interaction::Emitter { radiance, .. }) => return Components::emitted(radiance, depth),
+            None => return Sample::default(),
+            Some(Interaction::Emitter { radiance, .. }) => {
+                return Sample { emission: radiance, ..Sample::default() }
+            }
             Some(Interaction::Surface(sp)) => sp,
         };
         let config = self.ctx.config;
         let m = query.material(&sp);
         let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
 
-        let mut out = Components::default();
+        let mut out = Sample { depth: sp.t * ray.dir.length(), ..Sample::default() };
         if bsdf.has_smooth() {
             let sampling = LightSampling::Stratified { samples: config.light_samples };
-            out.direct = direct_light(query, &sp, &bsdf, sampling, rng, count) + m.diffuse * config.ambient;
+            out.direct = direct_light(query, &sp, &bsdf, sampling, rng, count);
+            out.indirect = m.diffuse * config.ambient;
             if let Some(extra) = self.surface_light {
-                (out.caustic, out.global) = extra.at(&sp, &bsdf, throughput, rng, count);
+                let (caustic, indirect) = extra.at(&sp, &bsdf, throughput, rng, count);
+                out.caustic = caustic;
+                out.indirect += indirect;
             }
+            (out.albedo, out.normal) = (m.diffuse + m.specular, sp.ns);
         }
         if depth + 1 >= config.max_depth {
             return out;
@@ -107,7 +114,12 @@ impl WhittedTracer<'_> {
             if carried.max_element() < config.min_throughput {
                 continue;
             }
-            out.specular += weight * self.radiance(&sp.spawn(dir), depth + 1, carried, rng, count).total();
+            let mut seen = self.radiance(&sp.spawn(dir), depth + 1, carried, rng, count).through(weight);
+            if bsdf.has_smooth() {
+                // The albedo and normal are this surface's own.
+                (seen.albedo, seen.normal) = (Vec3::ZERO, Vec3::ZERO);
+            }
+            out += seen;
         }
         out
     }

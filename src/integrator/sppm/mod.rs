@@ -31,7 +31,7 @@ use super::direct::{direct_light, LightSampling};
 use super::{Context, Integrator, Progress, RenderStats, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
-use crate::film::{Components, Film};
+use crate::film::{Film, Sample};
 use crate::photon::{emit, Arrival};
 use crate::query::{Interaction, RayCount};
 use crate::sampling::Rng;
@@ -64,8 +64,10 @@ impl Integrator for Sppm {
 #[derive(Debug, Clone)]
 struct PixelState {
     rng: Rng,
-    /// Sum over passes of the direct light and lights seen (by shadow rays).
-    direct: Vec3,
+    /// Sum over passes of what the camera paths find themselves: lights
+    /// seen, direct light by shadow rays, the ambient term, and the first
+    /// surface's albedo, normal and depth.
+    seen: Sample,
     /// Gathered flux of caustic photons (`L S+ D`), scaled as the radius shrinks.
     tau_caustic: Vec3,
     /// Gathered flux of the other photons, scaled as the radius shrinks.
@@ -118,7 +120,7 @@ impl<'a> Progressive<'a> {
         let pixels = (0..config.pixels())
             .map(|i| PixelState {
                 rng: Rng::new(config.seed, i),
-                direct: Vec3::ZERO,
+                seen: Sample::default(),
                 tau_caustic: Vec3::ZERO,
                 tau_global: Vec3::ZERO,
                 photons: 0.0,
@@ -192,18 +194,18 @@ impl<'a> Progressive<'a> {
         Rendered { film, stats }
     }
 
-    /// The image so far, one [`Components`] per pixel, row-major.
-    fn components(&self) -> Vec<Components> {
+    /// The image so far, one [`Sample`] per pixel, row-major.
+    fn components(&self) -> Vec<Sample> {
         let passes = self.passes.max(1) as f32;
         self.pixels
             .iter()
             .map(|s| {
                 let area = passes * PI * s.radius * s.radius;
-                Components {
-                    direct: s.direct / passes,
-                    specular: Vec3::ZERO,
+                let seen = s.seen * (1.0 / passes);
+                Sample {
                     caustic: s.tau_caustic / area,
-                    global: s.tau_global / area,
+                    indirect: seen.indirect + s.tau_global / area,
+                    ..seen
                 }
             })
             .collect()
@@ -262,8 +264,8 @@ impl<'a> Progressive<'a> {
 }
 
 /// Follows one jittered camera path from pixel `(x, y)` to its visible
-/// point, adding the light that shadow rays and emitters give to
-/// `state.direct`. At a surface with both diffuse/glossy and
+/// point, adding what it finds itself (lights, direct light by shadow rays,
+/// the first surface's albedo, normal and depth) to `state.seen`. At a surface with both diffuse/glossy and
 /// mirror/glass parts the path stops or goes on at random, in proportion
 /// to their weights (the weight divided by that chance keeps it unbiased).
 fn visible_point(
@@ -278,20 +280,30 @@ fn visible_point(
     let mut ray =
         ctx.scene().camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, config.width, config.height);
     let mut weight = Vec3::ONE;
-    for _ in 0..config.max_depth {
+    let seen = &mut state.seen;
+    let mut found_surface = false; // the first diffuse or glossy one, for albedo and normal
+    for bounce in 0..config.max_depth {
         let sp = match query.first(&ray, count)? {
             Interaction::Emitter { radiance, .. } => {
-                state.direct += weight * radiance;
+                seen.emission += weight * radiance;
                 return None;
             }
             Interaction::Surface(sp) => sp,
         };
+        if bounce == 0 {
+            seen.depth += sp.t * ray.dir.length();
+        }
         let m = query.material(&sp);
         let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
         if bsdf.has_smooth() {
             let sampling = LightSampling::Stratified { samples: config.light_samples };
-            let direct = direct_light(query, &sp, &bsdf, sampling, rng, count) + m.diffuse * config.ambient;
-            state.direct += weight * direct;
+            seen.direct += weight * direct_light(query, &sp, &bsdf, sampling, rng, count);
+            seen.indirect += weight * m.diffuse * config.ambient;
+            if !found_surface {
+                found_surface = true;
+                seen.albedo += weight * (m.diffuse + m.specular);
+                seen.normal += sp.ns * (weight.element_sum() / 3.0);
+            }
             let stop = if bsdf.has_specular() { bsdf.smooth_probability() } else { 1.0 };
             if stop >= 1.0 || rng.uniform() < stop {
                 return Some(VisiblePoint {
