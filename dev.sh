@@ -46,9 +46,12 @@ system_embree_flags() {
     fi
 }
 
-# fmt, then clippy and the tests with the cargo flags given.
+# Clippy (everything, then the library alone as a library user builds it),
+# the API docs without warnings, and the tests, with the cargo flags given.
 check() {
     cargo clippy --release --all-targets "$@" -- -D warnings
+    cargo clippy --release --lib --no-default-features "$@" -- -D warnings
+    RUSTDOCFLAGS="-D warnings" cargo doc --release --no-deps "$@"
     cargo test --release "$@"
 }
 

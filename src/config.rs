@@ -31,59 +31,57 @@ pub mod limits {
     pub const MAX_NEIGHBOURS: u32 = 100_000;
 }
 
-/// Which integrator computes the pixels. Each has its own file under
-/// [`crate::integrator`]; [`crate::integrator::create`] makes one from its kind.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum IntegratorKind {
-    /// Photon mapping: Whitted ray tracing plus caustics from the caustic
-    /// map and indirect light from the global map (by final gathering, or
-    /// shown directly when there are no gather rays).
-    #[default]
-    Photon,
-    /// Stochastic progressive photon mapping: passes of camera paths and
-    /// photons with a shrinking radius, converging to the exact image.
-    Sppm,
-    /// Whitted ray tracing: direct light, mirrors, refraction with Fresnel.
-    Whitted,
-    /// The unbiased reference: path tracing with next-event estimation and
-    /// multiple importance sampling for area lights.
-    Path,
-    /// Geometry preview: smooth normals as colours, `0.5 * (n + 1)`, dimmed by
-    /// the angle to the viewer so shapes read clearly.
-    Normals,
-    /// Geometry preview: distance to the first hit, near bright, far dark.
-    Depth,
+/// Defines [`IntegratorKind`] from one list of variants and names, so a
+/// new integrator is one line here (and one in [`crate::integrator::create`]).
+macro_rules! integrator_kinds {
+    ($($(#[$meta:meta])* $variant:ident = $name:literal,)*) => {
+        /// Which integrator computes the pixels. Each has its own file under
+        /// [`crate::integrator`]; [`crate::integrator::create`] makes one from its kind.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+        #[serde(rename_all = "lowercase")]
+        pub enum IntegratorKind {
+            $($(#[$meta])* $variant,)*
+        }
+
+        impl IntegratorKind {
+            /// Every kind, in the order the command line lists them.
+            pub const ALL: &'static [IntegratorKind] = &[$(IntegratorKind::$variant),*];
+
+            /// The lower-case name used in scene files and on the command line.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(IntegratorKind::$variant => $name,)*
+                }
+            }
+        }
+    };
 }
 
-impl IntegratorKind {
-    /// Every kind, in the order the command line lists them.
-    pub const ALL: [IntegratorKind; 6] = [
-        IntegratorKind::Photon,
-        IntegratorKind::Sppm,
-        IntegratorKind::Whitted,
-        IntegratorKind::Path,
-        IntegratorKind::Normals,
-        IntegratorKind::Depth,
-    ];
-
-    /// The lower-case name used in scene files and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            IntegratorKind::Photon => "photon",
-            IntegratorKind::Sppm => "sppm",
-            IntegratorKind::Whitted => "whitted",
-            IntegratorKind::Path => "path",
-            IntegratorKind::Normals => "normals",
-            IntegratorKind::Depth => "depth",
-        }
-    }
+integrator_kinds! {
+    /// Photon mapping: Whitted ray tracing plus caustics from the caustic
+    /// map and indirect light from the global map (by final gathering, or
+    /// shown directly when there are no gather rays). The default.
+    #[default]
+    Photon = "photon",
+    /// Stochastic progressive photon mapping: passes of camera paths and
+    /// photons with a shrinking radius, converging to the exact image.
+    Sppm = "sppm",
+    /// Whitted ray tracing: direct light, mirrors, refraction with Fresnel.
+    Whitted = "whitted",
+    /// The unbiased reference: path tracing with next-event estimation and
+    /// multiple importance sampling for area lights.
+    Path = "path",
+    /// Geometry preview: smooth normals as colours, `0.5 * (n + 1)`, dimmed by
+    /// the angle to the viewer so shapes read clearly.
+    Normals = "normals",
+    /// Geometry preview: distance to the first hit, near bright, far dark.
+    Depth = "depth",
 }
 
 impl std::str::FromStr for IntegratorKind {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        IntegratorKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| {
+        IntegratorKind::ALL.iter().copied().find(|k| k.name() == s).ok_or_else(|| {
             let names: Vec<&str> = IntegratorKind::ALL.iter().map(|k| k.name()).collect();
             format!("unknown integrator `{s}`; choose from {}", names.join(", "))
         })
@@ -343,8 +341,13 @@ mod tests {
 
     #[test]
     fn integrator_names_round_trip() {
-        for kind in IntegratorKind::ALL {
+        for &kind in IntegratorKind::ALL {
             assert_eq!(kind.name().parse::<IntegratorKind>(), Ok(kind));
+            assert_eq!(
+                kind.name(),
+                format!("{kind:?}").to_lowercase(),
+                "scene files use serde's lower-case names"
+            );
         }
         let err = "whit".parse::<IntegratorKind>().unwrap_err();
         assert!(err.contains("choose from photon, sppm"), "{err}");

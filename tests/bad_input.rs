@@ -39,7 +39,7 @@ fn edit(from: &str, to: &str) -> String {
 #[test]
 fn toml_syntax_error() {
     let text = edit("[image]", "[image");
-    assert_error_at(&text, "[image", "");
+    assert_error_at(&text, "[image", "invalid table header");
 }
 
 #[test]

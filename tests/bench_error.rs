@@ -66,9 +66,11 @@ fn writes_a_row_per_render_and_a_curve_per_integrator() {
             let seconds: f64 = row[row.len() - 5].parse().unwrap();
             assert!(seconds > 0.0 && rmse[level] > 0.0 && rmse[level].is_finite(), "{row:?}");
         }
-        // The path tracer's noise falls as its budget grows (4x the samples: half the error).
+        // The path tracer's noise falls as its budget grows (4x the samples:
+        // about half the error). The quad has no indirect light, so the photon
+        // mappers' errors here are at the reference's own noise: not compared.
         if integrator == "path" {
-            assert!(rmse[2] < rmse[0], "{integrator}: {rmse:?}");
+            assert!(rmse[2] < 0.7 * rmse[0], "{integrator}: {rmse:?}");
         }
     }
     let svg = std::fs::read_to_string(&plot).unwrap();

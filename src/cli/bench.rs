@@ -129,7 +129,7 @@ pub struct ErrorArgs {
     #[arg(long)]
     reference: PathBuf,
     /// Integrators to measure (comma-separated).
-    #[arg(long, value_parser = named::<Integrator>(Integrator::ALL.map(Integrator::name)), value_delimiter = ',', default_value = "path,photon,sppm")]
+    #[arg(long, value_parser = named::<Integrator>(Integrator::ALL.iter().map(|k| k.name())), value_delimiter = ',', default_value = "path,photon,sppm")]
     integrators: Vec<Integrator>,
     /// Budgets per integrator, each double the one before.
     #[arg(long, default_value_t = 6)]

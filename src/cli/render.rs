@@ -20,7 +20,7 @@ pub struct RenderArgs {
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Integrator (overrides the scene file's [render] integrator).
-    #[arg(long, value_parser = named::<IntegratorKind>(IntegratorKind::ALL.map(IntegratorKind::name)))]
+    #[arg(long, value_parser = named::<IntegratorKind>(IntegratorKind::ALL.iter().map(|k| k.name())))]
     integrator: Option<IntegratorKind>,
     /// Ray intersector (overrides the scene file's [render] backend; default embree).
     #[arg(long, value_parser = named::<Backend>(Backend::NAMES.map(|(n, _)| n)))]
