@@ -10,7 +10,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use crate::accel::Ray;
-use crate::sampling::{around, cosine_hemisphere, uniform_sphere};
+use crate::sampling::{around, cosine_hemisphere, uniform_cone, uniform_sphere};
 
 /// One sample of the light arriving at a point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -135,10 +135,7 @@ impl Light {
                 // Uniform in solid angle over the cone (pdf 1 / omega), so the
                 // photon carries intensity / pdf = I(theta) * omega.
                 let cos_total = cone_angle.cos();
-                let cos_t = 1.0 - v.x * (1.0 - cos_total);
-                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-                let phi = std::f32::consts::TAU * v.y;
-                let dir = around(direction, Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t));
+                let dir = around(direction, uniform_cone(v, cos_total));
                 let omega = 2.0 * PI * (1.0 - cos_total);
                 let intensity = self.intensity(dir).map_or(Vec3::ZERO, |(_, i)| i);
                 (Ray::new(position, dir), intensity * omega)

@@ -87,6 +87,15 @@ pub fn phong_lobe_pdf(cos: f32, exponent: f32) -> f32 {
     (exponent + 1.0) / std::f32::consts::TAU * cos.max(0.0).powf(exponent)
 }
 
+/// A direction about +z uniform in solid angle within the cone of
+/// half-angle cosine `cos_max`; pdf `1 / (2 pi (1 - cos_max))`.
+pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let cos = 1.0 - u.x * (1.0 - cos_max);
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)
+}
+
 /// A uniformly distributed unit vector; pdf `1 / (4 pi)`.
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;

@@ -25,7 +25,7 @@ use crate::accel::Ray;
 use crate::bsdf::{russian_roulette, Bsdf};
 use crate::config::PhotonConfig;
 use crate::query::{Interaction, RayCount, SceneQuery};
-use crate::sampling::{around, Rng};
+use crate::sampling::{around, uniform_cone, Rng};
 use crate::scene::Scene;
 pub use map::{Estimate, Photon, PhotonMap};
 
@@ -183,10 +183,7 @@ impl Cones {
             hit
         });
         let &(axis, cos_max, _) = cone.unwrap_or(self.cones.last().expect("at least one cone"));
-        let cos = 1.0 - v.x * (1.0 - cos_max);
-        let sin = (1.0 - cos * cos).max(0.0).sqrt();
-        let phi = std::f32::consts::TAU * v.y;
-        around(axis, Vec3::new(sin * phi.cos(), sin * phi.sin(), cos))
+        around(axis, uniform_cone(v, cos_max))
     }
 
     /// The density (per steradian) of [`Cones::sample`] at `dir`.
