@@ -193,3 +193,24 @@ fn cli_compare_measures_differences_and_refuses_mismatched_sizes() {
     assert_eq!(bad.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("differ in size: 16x16 and 8x16"));
 }
+
+/// A library caller gets the command line's checks: a setting out of range
+/// is an error naming it, not a panic deep inside a render.
+#[test]
+fn the_library_refuses_settings_out_of_range() {
+    let scene = Scene::from_toml(QUAD_SCENE, Path::new("quad.toml")).unwrap();
+    let accel = EmbreeIntersector::build(&scene.triangle_views()).unwrap();
+    let mut no_samples = scene.config.clone();
+    no_samples.samples = 0;
+    let mut no_passes = RenderConfig { integrator: Integrator::Sppm, ..scene.config.clone() };
+    no_passes.photons.sppm.passes = 0;
+    for (config, name) in [(no_samples, "samples"), (no_passes, "passes")] {
+        match render(&scene, &accel, &config, &|_| {}) {
+            Err(caustix::Error::Setting { name: found, message }) => {
+                assert_eq!(found, name);
+                assert!(message.contains("from 1 to"), "{message}");
+            }
+            other => panic!("{name} = 0 must be refused, got {:?}", other.map(|r| r.stats)),
+        }
+    }
+}
