@@ -122,9 +122,10 @@ pub struct PhotonConfig {
     pub global_photons: u32,
     /// Photons emitted for the caustic map.
     pub caustic_photons: u32,
-    /// Nearest photons per global estimate.
+    /// Nearest photons per global estimate (at least 2: the farthest only
+    /// marks the radius).
     pub global_k: u32,
-    /// Nearest photons per caustic estimate.
+    /// Nearest photons per caustic estimate (at least 2).
     pub caustic_k: u32,
     /// Largest global search radius; `None`: 1/25 of the scene's diagonal.
     pub global_radius: Option<f32>,
@@ -283,8 +284,9 @@ impl RenderConfig {
         let p = &self.photons;
         in_range("global_photons", p.global_photons, 0, MAX_PHOTONS)?;
         in_range("caustic_photons", p.caustic_photons, 0, MAX_PHOTONS)?;
-        in_range("global_k", p.global_k, 1, MAX_NEIGHBOURS)?;
-        in_range("caustic_k", p.caustic_k, 1, MAX_NEIGHBOURS)?;
+        // The k-th photon only marks the estimate's radius: k = 1 would sum none.
+        in_range("global_k", p.global_k, 2, MAX_NEIGHBOURS)?;
+        in_range("caustic_k", p.caustic_k, 2, MAX_NEIGHBOURS)?;
         in_range("gather_rays", p.gather_rays, 0, MAX_SAMPLES)?;
         in_range("max_bounces", p.max_bounces, 1, MAX_DEPTH)?;
         in_range("passes", p.sppm.passes, 1, MAX_PASSES)?;
@@ -323,7 +325,7 @@ mod tests {
             ("samples", |c| c.samples = 0),
             ("width", |c| c.width = limits::MAX_IMAGE_SIDE + 1),
             ("max_depth", |c| c.max_depth = 0),
-            ("global_k", |c| c.photons.global_k = 0),
+            ("global_k", |c| c.photons.global_k = 1),
             ("passes", |c| c.photons.sppm.passes = 0),
             ("sppm_radius", |c| c.photons.sppm.initial_radius = Some(f32::NAN)),
             ("sppm_alpha", |c| c.photons.sppm.alpha = 1.0),

@@ -68,8 +68,8 @@ pub enum Error {
         /// What is wrong with its value and what is allowed.
         message: String,
     },
-    /// An image could not be encoded or saved.
-    #[error("{}: cannot write image: {message}", path.display())]
+    /// An image could not be read, encoded or saved.
+    #[error("{}: {message}", path.display())]
     Image {
         /// The output file.
         path: PathBuf,

@@ -36,6 +36,7 @@ pub mod bounds;
 pub mod bsdf;
 pub mod config;
 pub mod error;
+pub mod files;
 pub mod film;
 pub mod integrator;
 pub mod light;

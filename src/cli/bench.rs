@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Subcommand;
 
-use crate::{build_accel, in_range, load, named};
+use crate::{build_accel, in_range, load, named, MAX_THREADS};
 use caustix::accel::BvhLayout;
 use caustix::config::{limits, IntegratorKind as Integrator, RenderConfig};
 use caustix::scene::Scene;
@@ -142,7 +142,7 @@ pub struct ErrorArgs {
     plot: PathBuf,
     /// Worker threads (default: all cores).
     #[arg(long)]
-    threads: Option<usize>,
+    threads: Option<u32>,
 }
 
 fn bench_rays(
@@ -158,7 +158,7 @@ fn bench_rays(
     let width = in_range("--width", width, 1, limits::MAX_IMAGE_SIDE)?;
     let height = in_range("--height", height, 1, limits::MAX_IMAGE_SIDE)?;
     let overrides = caustix::scene::Overrides { teapot_subdivisions };
-    print!("{}", caustix::bench::ray_report(path, &overrides, width, height, repeats)?);
+    out!("{}", caustix::bench::ray_report(path, &overrides, width, height, repeats)?);
     Ok(())
 }
 
@@ -196,7 +196,7 @@ fn bench_photons(
         )
         },
     )?;
-    print!("{}", caustix::bench::photons::table(&rows));
+    out!("{}", caustix::bench::photons::table(&rows));
     if let Some(dump) = dump {
         eprintln!("wrote the last map's points and queries to {}", dump.display());
     }
@@ -221,7 +221,7 @@ fn bench_threads(
 ) -> anyhow::Result<()> {
     let threads: Vec<usize> = threads
         .iter()
-        .map(|&n| in_range("--threads", n, 1, 1024).map(|n| n as usize))
+        .map(|&n| in_range("--threads", n, 1, MAX_THREADS).map(|n| n as usize))
         .collect::<Result<_, _>>()?;
     if let Some(level) = teapot_subdivisions {
         in_range("--teapot-subdivisions", level, 1, limits::MAX_TEAPOT_LEVEL)?;
@@ -242,7 +242,7 @@ fn bench_threads(
             r.threads, r.embree_build, r.native_build, r.photons, r.render
         )
     })?;
-    print!("{}", caustix::bench::threads::table(&rows));
+    out!("{}", caustix::bench::threads::table(&rows));
     anyhow::ensure!(rows.iter().all(|r| r.same_image), "the image changed with the thread count");
     Ok(())
 }
@@ -280,7 +280,7 @@ fn bench_scale(
             r.triangles, r.load_seconds, r.embree_seconds, r.native_seconds, r.render_seconds
         )
     })?;
-    print!("{}", scale::table(&rows));
+    out!("{}", scale::table(&rows));
     std::fs::write(csv, scale::csv(&rows)).with_context(|| format!("writing {}", csv.display()))?;
     scale::plot(&rows, plot)?;
     eprintln!("wrote {} and {}", csv.display(), plot.display());
@@ -315,7 +315,9 @@ fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
         anyhow::bail!("--integrators: {} is not measured; choose from path, photon, sppm", error::name(*bad));
     }
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
+        .num_threads(
+            args.threads.map(|n| in_range("--threads", n, 1, MAX_THREADS)).transpose()?.unwrap_or(0) as usize
+        )
         .build()
         .context("starting worker threads")?;
     let accel = build_accel(&scene)?;

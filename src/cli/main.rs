@@ -3,6 +3,23 @@
 //! own file: `render.rs`, `bench.rs` (measurements), `tools.rs` (info,
 //! export, compare).
 
+/// `print!` that returns the error instead of panicking, so that a reader
+/// going away (`caustix info scene.toml | head -1`) ends the program quietly.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+
+/// `println!` that returns the error instead of panicking (see `out!`).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+
 mod bench;
 mod render;
 mod tools;
@@ -70,6 +87,13 @@ enum Command {
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of our output went away (`| head`): nothing more to say.
+        Err(e)
+            if e.downcast_ref::<std::io::Error>()
+                .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe) =>
+        {
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
@@ -104,6 +128,10 @@ fn build_accel(scene: &Scene) -> anyhow::Result<Box<dyn caustix::accel::Intersec
     caustix::accel::build_with_layout(scene.config.backend, scene.config.bvh, &scene.triangle_views())
         .context("building the ray intersector")
 }
+
+/// Most worker threads `--threads` may ask for (a typo like 100000 would
+/// start that many).
+const MAX_THREADS: u32 = 1024;
 
 /// Checks a command-line number of a measurement (render settings go
 /// through [`caustix::RenderConfig::validate`] instead).

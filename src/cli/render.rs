@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::{load, named};
+use crate::{in_range, load, named, MAX_THREADS};
 use caustix::accel::{Backend, BvhLayout};
 use caustix::config::{IntegratorKind, RenderConfig};
 use caustix::film::Aov;
@@ -87,7 +87,7 @@ pub struct RenderArgs {
     aov: Vec<Aov>,
     /// Worker threads (default: all cores). The image is the same for any count.
     #[arg(long)]
-    threads: Option<usize>,
+    threads: Option<u32>,
     /// Seed of every random stream: another seed, an independent image (default 0).
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -136,16 +136,22 @@ fn flag(name: &str) -> String {
 }
 
 pub fn render(args: RenderArgs) -> anyhow::Result<()> {
-    let scene = load(&args.scene)?;
-    let settings = config(&args, &scene)?;
-    anyhow::ensure!(args.exposure.is_finite(), "--exposure must be a finite number of stops");
+    // Everything that can be refused is refused before any work.
     let output = args
         .output
         .clone()
         .unwrap_or_else(|| PathBuf::from(args.scene.file_stem().unwrap_or_default()).with_extension("png"));
+    caustix::Image::check_output(&output)?;
+    anyhow::ensure!(args.exposure.is_finite(), "--exposure must be a finite number of stops");
+    let threads = match args.threads {
+        Some(n) => in_range("--threads", n, 1, MAX_THREADS)?,
+        None => 0, // all cores
+    };
+    let scene = load(&args.scene)?;
+    let settings = config(&args, &scene)?;
 
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
+        .num_threads(threads as usize)
         .build()
         .context("starting worker threads")?;
     // Inside the pool, so that --threads bounds the BVH builds too.

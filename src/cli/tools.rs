@@ -38,13 +38,27 @@ pub fn export(scene_path: &Path, output: &Path, teapot_subdivisions: Option<u32>
 pub fn compare(image: &Path, reference: &Path, error_image: Option<&Path>, scale: f32) -> anyhow::Result<()> {
     use caustix::Image;
     let (a, b) = (Image::load(image)?, Image::load(reference)?);
+    for (img, path) in [(&a, image), (&b, reference)] {
+        if let Some(((x, y), count)) = img.non_finite() {
+            anyhow::bail!(
+                "{}: {count} pixels are NaN or infinite, the first at ({x}, {y}); no error measure means anything then",
+                path.display()
+            );
+        }
+    }
+    if Image::holds_radiance(image) != Image::holds_radiance(reference) {
+        eprintln!(
+            "note: one image is linear radiance (.exr, .hdr) and the other display values (PNG: exposed, \
+             clamped to 1, decoded from sRGB): they differ wherever the PNG was clipped, whatever the render"
+        );
+    }
     let d = a.difference(&b).ok_or_else(|| {
         anyhow::anyhow!("the images differ in size: {}x{} and {}x{}", a.width, a.height, b.width, b.height)
     })?;
-    println!("rmse     {:.6}", d.rmse);
-    println!("rel_mse  {:.6}", d.rel_mse);
-    println!("mae      {:.6}", d.mae);
-    println!("mean     {:.6} (reference {:.6}, ratio {:.4})", d.means.0, d.means.1, d.means.0 / d.means.1);
+    outln!("rmse     {:.6}", d.rmse);
+    outln!("rel_mse  {:.6}", d.rel_mse);
+    outln!("mae      {:.6}", d.mae);
+    outln!("mean     {:.6} (reference {:.6}, ratio {:.4})", d.means.0, d.means.1, d.means.0 / d.means.1);
     if let Some(out) = error_image {
         anyhow::ensure!(scale.is_finite() && scale > 0.0, "--error-scale must be greater than 0");
         a.error_image(&b, scale).save(out, 0.0)?;
@@ -58,51 +72,59 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
     let scene = load(path)?;
     let load_seconds = start.elapsed().as_secs_f64();
     let b = scene.bounds();
-    println!("scene     {} (loaded in {load_seconds:.2} s)", path.display());
-    println!(
+    outln!("scene     {} (loaded in {load_seconds:.2} s)", path.display());
+    outln!(
         "image     {}x{}, {} samples per pixel",
-        scene.config.width, scene.config.height, scene.config.samples
+        scene.config.width,
+        scene.config.height,
+        scene.config.samples
     );
-    println!(
+    outln!(
         "camera    eye {}, looking along {}, fov {:.1} deg",
         scene.camera.eye,
         -scene.camera.w,
         2.0 * scene.camera.tan_half_fov.atan().to_degrees()
     );
-    println!(
+    outln!(
         "geometry  {} triangles, {} vertices in {} meshes",
         scene.triangle_count(),
         scene.vertex_count(),
         scene.meshes.len()
     );
-    println!("bounds    {} to {}", b.min, b.max);
+    outln!("bounds    {} to {}", b.min, b.max);
     let bytes: usize = scene.meshes.iter().map(|m| m.bytes()).sum();
-    println!(
+    outln!(
         "memory    {:.1} MiB of positions, normals and indices ({:.1} bytes per triangle)",
         bytes as f64 / (1024.0 * 1024.0),
         bytes as f64 / scene.triangle_count().max(1) as f64
     );
     for m in &scene.meshes {
-        println!(
+        outln!(
             "  mesh    {:<24} {:>9} triangles  material {}",
             m.name,
             m.indices.len(),
             scene.materials[m.material].name
         );
     }
-    println!("materials {}", scene.materials.len());
+    outln!("materials {}", scene.materials.len());
     for m in &scene.materials {
-        println!(
+        outln!(
             "  {:<22} diffuse {} specular {} (exp {}) mirror {} transmit {} ior {}",
-            m.name, m.diffuse, m.specular, m.phong_exponent, m.mirror, m.transmittance, m.ior
+            m.name,
+            m.diffuse,
+            m.specular,
+            m.phong_exponent,
+            m.mirror,
+            m.transmittance,
+            m.ior
         );
     }
-    println!("lights    {}", scene.lights.len());
+    outln!("lights    {}", scene.lights.len());
     for l in &scene.lights {
-        println!("  {}", l.describe());
+        outln!("  {}", l.describe());
     }
     let start = std::time::Instant::now();
     let accel = build_accel(&scene)?;
-    println!("backend   {} (built in {:.2} s)", accel.name(), start.elapsed().as_secs_f64());
+    outln!("backend   {} (built in {:.2} s)", accel.name(), start.elapsed().as_secs_f64());
     Ok(())
 }

@@ -36,38 +36,57 @@ impl Image {
     /// Writes the image in the format its extension names: `.png` is
     /// display-ready 8-bit sRGB after `exposure` (in stops); `.exr` and `.hdr`
     /// keep the linear radiance values as they are (exposure is not applied).
+    ///
+    /// The file is encoded in memory and written whole or not at all (see
+    /// [`crate::files::write_whole`]): a full disk is an error, and never
+    /// leaves a truncated image behind.
     pub fn save(&self, path: &Path, exposure: f32) -> Result<()> {
-        let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        let result = match extension.as_deref() {
-            Some("png") => image::RgbImage::from_raw(self.width, self.height, self.to_srgb8(exposure))
-                .expect("buffer size matches the image")
-                .save_with_format(path, image::ImageFormat::Png),
-            Some(linear @ ("exr" | "hdr")) => {
+        let mut encoded = std::io::Cursor::new(Vec::new());
+        let result = match output_format(path)? {
+            image::ImageFormat::Png => {
+                image::RgbImage::from_raw(self.width, self.height, self.to_srgb8(exposure))
+                    .expect("buffer size matches the image")
+                    .write_to(&mut encoded, image::ImageFormat::Png)
+            }
+            linear => {
                 let data = self.pixels.iter().flat_map(|p| p.to_array()).collect();
-                let format =
-                    if linear == "exr" { image::ImageFormat::OpenExr } else { image::ImageFormat::Hdr };
                 image::Rgb32FImage::from_raw(self.width, self.height, data)
                     .expect("buffer size matches the image")
-                    .save_with_format(path, format)
-            }
-            _ => {
-                return Err(Error::Image {
-                    path: path.to_path_buf(),
-                    message: "unknown image format; name the file .png, .exr or .hdr".into(),
-                })
+                    .write_to(&mut encoded, linear)
             }
         };
-        result.map_err(|e| image_error(path, e))
+        result.map_err(|e| image_error(path, "cannot write image", e))?;
+        crate::files::write_whole(path, encoded.get_ref())
+    }
+
+    /// Checks before any work that `path` names an image format [`Image::save`]
+    /// writes and a place it can be written.
+    pub fn check_output(path: &Path) -> Result<()> {
+        output_format(path)?;
+        crate::files::check_writable(path)
+    }
+
+    /// Whether a file of this name holds linear radiance (`.exr`, `.hdr`)
+    /// rather than display values (PNG: exposed, clamped, sRGB-encoded).
+    pub fn holds_radiance(path: &Path) -> bool {
+        path.extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr") || e.eq_ignore_ascii_case("hdr"))
+    }
+
+    /// The first pixel (column, row) that is NaN or infinite, and how many are.
+    pub fn non_finite(&self) -> Option<((u32, u32), usize)> {
+        let first = self.pixels.iter().position(|p| !p.is_finite())?;
+        let count = self.pixels.iter().filter(|p| !p.is_finite()).count();
+        Some(((first as u32 % self.width, first as u32 / self.width), count))
     }
 
     /// Reads an image: `.exr` and `.hdr` as the linear values they hold, other
     /// formats (PNG) decoded from sRGB to linear.
     pub fn load(path: &Path) -> Result<Image> {
-        let decoded = image::open(path).map_err(|e| image_error(path, e))?;
-        let is_linear = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("exr") || e.eq_ignore_ascii_case("hdr"));
+        crate::files::check_regular(path)?;
+        let decoded = image::open(path).map_err(|e| image_error(path, "cannot read image", e))?;
+        let is_linear = Image::holds_radiance(path);
         let rgb = decoded.to_rgb32f();
         let pixels = rgb
             .pixels()
@@ -133,10 +152,24 @@ impl Image {
     }
 }
 
-fn image_error(path: &Path, e: image::ImageError) -> Error {
+fn image_error(path: &Path, doing: &str, e: image::ImageError) -> Error {
     match e {
         image::ImageError::IoError(io) => Error::io(path, io),
-        other => Error::Image { path: path.to_path_buf(), message: other.to_string() },
+        other => Error::Image { path: path.to_path_buf(), message: format!("{doing}: {other}") },
+    }
+}
+
+/// The format an output file's extension names.
+fn output_format(path: &Path) -> Result<image::ImageFormat> {
+    let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    match extension.as_deref() {
+        Some("png") => Ok(image::ImageFormat::Png),
+        Some("exr") => Ok(image::ImageFormat::OpenExr),
+        Some("hdr") => Ok(image::ImageFormat::Hdr),
+        _ => Err(Error::Image {
+            path: path.to_path_buf(),
+            message: "unknown image format; name the file .png, .exr or .hdr".into(),
+        }),
     }
 }
 

@@ -267,7 +267,7 @@ fn photon_count<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error>
 }
 
 fn neighbours<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    whole_number(d, 1, MAX_NEIGHBOURS)
+    whole_number(d, 2, MAX_NEIGHBOURS)
 }
 
 fn gather_rays<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {

@@ -55,7 +55,7 @@ impl Scene {
 
     /// [`Scene::load`] with some of the file's settings replaced.
     pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::files::read_text(path, crate::files::MAX_TEXT_BYTES)?;
         Scene::from_toml_with(&text, path, overrides)
     }
 
@@ -332,7 +332,7 @@ impl Builder<'_> {
             None => teapot::parse_bpt(teapot::TEAPOT_BPT, Path::new("scenes/data/teapot.bpt"))?,
             Some(file) => {
                 let bpt_path = self.relative(file);
-                let text = std::fs::read_to_string(&bpt_path).map_err(|e| Error::io(&bpt_path, e))?;
+                let text = crate::files::read_text(&bpt_path, crate::files::MAX_TEXT_BYTES)?;
                 teapot::parse_bpt(&text, &bpt_path)?
             }
         };
@@ -445,6 +445,7 @@ fn transform_matrix(t: &file::TransformSection) -> Mat4 {
 /// Meshes from an OBJ or PLY file (by extension). PLY files have no
 /// materials, so their `[[mesh]]` must name one.
 fn load_mesh_file(path: &Path, material: Option<usize>, first_material: usize) -> Result<obj::ObjContents> {
+    crate::files::check_regular(path)?;
     let is_ply = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
     if !is_ply {
         return obj::load(path, material, first_material);

@@ -186,6 +186,9 @@ fn read_header(path: &Path, input: &mut impl BufRead) -> Result<(Format, Vec<Ele
             ["element", name, count] => {
                 let count =
                     count.parse().map_err(|_| at(n, format!("element count `{count}` is not a number")))?;
+                if matches!(*name, "vertex" | "face") && elements.iter().any(|e| e.name == *name) {
+                    return Err(at(n, format!("a second `element {name}`: a mesh has one")));
+                }
                 elements.push(Element { name: name.to_string(), count, properties: Vec::new() });
             }
             ["property", rest @ ..] => {
@@ -282,6 +285,9 @@ impl<R: BufRead> DataReader<'_, R> {
     }
 
     fn skip(&mut self, element: &Element) -> Result<()> {
+        if element.properties.is_empty() {
+            return Ok(()); // records of nothing: whatever the count, there is nothing to read
+        }
         let mut values = vec![0.0; element.properties.len()];
         for i in 0..element.count {
             self.record(element, i, &mut values, None, &mut Vec::new())?;
@@ -386,10 +392,12 @@ impl<R: BufRead> DataReader<'_, R> {
                     corners.len()
                 )));
             }
-            if let Some(bad) = corners.iter().find(|&&i| i < 0.0 || i >= vertex_count as f64) {
+            let valid = |i: f64| i >= 0.0 && i < vertex_count as f64 && i.fract() == 0.0;
+            if let Some(bad) = corners.iter().find(|&&i| !valid(i)) {
                 return Err(self.error(format!(
-                    "face {}: vertex index {bad} out of range ({vertex_count} vertices)",
-                    face + 1
+                    "face {}: vertex index {bad} is not one of the {vertex_count} vertices (0 to {})",
+                    face + 1,
+                    vertex_count.saturating_sub(1)
                 )));
             }
             for k in 1..corners.len() - 1 {
@@ -505,7 +513,18 @@ mod tests {
         let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
             property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
         let e = err(&format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n"));
-        assert!(e.contains("face 1: vertex index 5 out of range (3 vertices)"), "{e}");
+        assert!(e.contains("face 1: vertex index 5 is not one of the 3 vertices (0 to 2)"), "{e}");
+        // Indices that are not whole numbers are refused too (they used to become vertex 0 or 1).
+        for (bad, shown) in [("nan", "NaN"), ("1.5", "1.5"), ("-1", "-1")] {
+            let e = err(&format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 {bad}\n"));
+            assert!(e.contains(&format!("vertex index {shown} is not one of")), "{bad}: {e}");
+        }
+        // A second vertex element used to index past the first's vertices and panic.
+        let e = err(&format!("{}element vertex 1\nproperty float x\nend_header\n", &head[..head.len() - 11]));
+        assert!(e.contains("t.ply:9:") && e.contains("a second `element vertex`"), "{e}");
+        // An element of no properties and a huge count used to loop for ever.
+        let e = err("ply\nformat ascii 1.0\nelement junk 1000000000000000000\nend_header\n");
+        assert!(e.contains("no `element vertex`"), "{e}");
         let e = err(&format!("{head}0 0 0\n1 0 0\n0 1 0\n"));
         assert!(e.contains("ends in face 1"), "{e}");
         let e = err(&format!("{head}0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n"));

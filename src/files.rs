@@ -1,0 +1,144 @@
+//! Reading the files a user names without trusting them: only regular files
+//! are read (a folder, a FIFO or `/dev/zero` is an error, not a hang), text
+//! files only up to a size limit, and output files are checked before any
+//! work and written whole or not at all.
+
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+
+/// The largest scene or patch file read as text: far beyond any scene
+/// written by hand (meshes go in OBJ or PLY files).
+pub const MAX_TEXT_BYTES: u64 = 64 << 20;
+
+/// Refuses anything at `path` but a regular file (following links).
+pub fn check_regular(path: &Path) -> Result<()> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.is_file() {
+        return Ok(());
+    }
+    let what = if meta.is_dir() { "a folder" } else { "not a regular file (a device, FIFO or socket)" };
+    Err(Error::input(path, format!("this is {what}; give the path of a file")))
+}
+
+/// The text of the regular file at `path`, refused beyond `limit` bytes.
+pub fn read_text(path: &Path, limit: u64) -> Result<String> {
+    check_regular(path)?;
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut bytes = Vec::new();
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(|e| Error::io(path, e))?;
+    if bytes.len() as u64 > limit {
+        return Err(Error::input(
+            path,
+            format!("larger than {} MiB: not a scene file? (meshes belong in OBJ or PLY files)", limit >> 20),
+        ));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let location = crate::error::Location::from_offset(
+            // The valid part, for the line and column of the first bad byte.
+            std::str::from_utf8(&e.as_bytes()[..e.utf8_error().valid_up_to()]).unwrap_or(""),
+            e.utf8_error().valid_up_to(),
+        );
+        Error::input_at(path, location, "not UTF-8 text: is this a binary file?")
+    })
+}
+
+/// Checks, before any work, that `path` can be written: its folder exists
+/// and takes new files, and it is not a folder itself. A device (such as
+/// `/dev/null`) is accepted as it is.
+pub fn check_writable(path: &Path) -> Result<()> {
+    match std::fs::metadata(path) {
+        Ok(meta) if meta.is_dir() => {
+            return Err(Error::input(path, "this is a folder; name the file to write"))
+        }
+        Ok(meta) if !meta.is_file() => {
+            return std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map(drop)
+                .map_err(|e| Error::io(path, e));
+        }
+        _ => {}
+    }
+    let folder = folder_of(path);
+    if !folder.is_dir() {
+        return Err(Error::input(path, format!("the folder `{}` does not exist", folder.display())));
+    }
+    let probe = partial_path(path);
+    std::fs::File::create(&probe).map_err(|e| Error::io(path, e))?;
+    std::fs::remove_file(&probe).map_err(|e| Error::io(&probe, e))
+}
+
+/// Writes `bytes` to `path` whole or not at all: into a temporary file
+/// beside it, synced, then renamed over it, so a failure (a full disk) never
+/// leaves a truncated file that looks valid. A device is written directly.
+pub fn write_whole(path: &Path, bytes: &[u8]) -> Result<()> {
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        return std::fs::write(path, bytes).map_err(|e| Error::io(path, e));
+    }
+    let partial = partial_path(path);
+    let written = (|| {
+        let mut file = std::fs::File::create(&partial)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        std::fs::rename(&partial, path)
+    })();
+    if written.is_err() {
+        let _ = std::fs::remove_file(&partial);
+    }
+    written.map_err(|e| Error::io(path, e))
+}
+
+fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// `dir/.name.partial-PID`: where `path` is written before it is renamed.
+fn partial_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map_or_else(|| "output".into(), |n| n.to_string_lossy().into_owned());
+    folder_of(path).join(format!(".{name}.partial-{}", std::process::id()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_regular_files_are_read_and_only_so_much() {
+        let dir = tempfile::tempdir().unwrap();
+        assert!(read_text(dir.path(), 10).unwrap_err().to_string().contains("a folder"));
+        assert!(read_text(Path::new("/dev/zero"), 10)
+            .unwrap_err()
+            .to_string()
+            .contains("not a regular file"));
+        let big = dir.path().join("big.toml");
+        std::fs::write(&big, "x".repeat(11)).unwrap();
+        assert!(read_text(&big, 10).unwrap_err().to_string().contains("larger than"));
+        assert_eq!(read_text(&big, 11).unwrap().len(), 11);
+        let binary = dir.path().join("b.toml");
+        std::fs::write(&binary, b"a = 1\n\xff\xfe").unwrap();
+        assert!(read_text(&binary, 100).unwrap_err().to_string().contains("b.toml:2:1: not UTF-8"));
+    }
+
+    #[test]
+    fn outputs_are_checked_first_and_written_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("no/such/folder/x.png");
+        assert!(check_writable(&missing).unwrap_err().to_string().contains("does not exist"));
+        assert!(check_writable(dir.path()).unwrap_err().to_string().contains("a folder"));
+        let out = dir.path().join("x.bin");
+        check_writable(&out).unwrap();
+        assert!(!out.exists(), "the check leaves nothing behind");
+        write_whole(&out, b"abc").unwrap();
+        assert_eq!(std::fs::read(&out).unwrap(), b"abc");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no partial file left");
+        // A full disk is an error, not a silent success.
+        if Path::new("/dev/full").exists() {
+            assert!(write_whole(Path::new("/dev/full"), &[0; 4096]).is_err());
+        }
+    }
+}

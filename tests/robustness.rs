@@ -1,0 +1,138 @@
+//! Hostile but legal input: every one ends in a correct result or one clear
+//! error with a non-zero exit, never a panic, a hang, or a wrong file with
+//! exit 0.
+
+mod common;
+
+use std::ffi::OsStr;
+use std::process::{Command, Stdio};
+
+use caustix::Image;
+use common::{caustix, write, QUAD_SCENE};
+use glam::Vec3;
+
+/// `caustix ARGS` must fail with exit code 1 and an `error:` line saying `says`.
+fn refused(args: &[&OsStr], says: &str) {
+    let run = caustix(args);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{args:?}: {stderr}");
+    assert!(stderr.starts_with("error: ") && !stderr.contains("panicked"), "{args:?}: {stderr}");
+    assert!(stderr.contains(says), "{args:?} should say `{says}`: {stderr}");
+}
+
+#[test]
+fn a_reader_that_goes_away_ends_the_output_quietly() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
+    let image = dir.path().join("a.exr");
+    Image { width: 1, height: 1, pixels: vec![Vec3::ONE] }.save(&image, 0.0).unwrap();
+    let image = image.to_str().unwrap();
+    for args in [vec!["info", scene.to_str().unwrap()], vec!["compare", image, image]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_caustix"))
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take()); // `| head -0`: the pipe closes before anything is read
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
+    }
+}
+
+#[test]
+fn outputs_are_checked_before_any_work_and_never_left_half_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
+    let render = |out: &OsStr, says: &str| {
+        refused(&["render".as_ref(), scene.as_os_str(), "-o".as_ref(), out], says);
+    };
+    let missing = dir.path().join("no/such/folder/x.png");
+    render(missing.as_os_str(), "does not exist");
+    render(dir.path().join("x.jpg").as_os_str(), "name the file .png, .exr or .hdr");
+    let folder = dir.path().join("folder.png");
+    std::fs::create_dir(&folder).unwrap();
+    render(folder.as_os_str(), "this is a folder");
+    // A full disk used to be reported as success (/dev/full behaves as one).
+    let full = dir.path().join("full.png");
+    if std::os::unix::fs::symlink("/dev/full", &full).is_ok() && std::path::Path::new("/dev/full").exists() {
+        render(full.as_os_str(), "No space left");
+        std::fs::remove_file(&full).unwrap();
+    }
+    // The output is checked before the scene is even read.
+    let absent = dir.path().join("absent.toml");
+    refused(&["render".as_ref(), absent.as_os_str(), "-o".as_ref(), missing.as_os_str()], "does not exist");
+    assert!(!missing.parent().unwrap().exists());
+    // Nothing but the scene is left in the folder by the failures.
+    let mut left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    left.sort();
+    assert_eq!(left, ["folder.png", "quad.toml"].map(std::ffi::OsString::from));
+}
+
+#[test]
+fn absurd_settings_are_refused_with_their_limits() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
+    let out = dir.path().join("x.png");
+    let with = |flag: &str, value: &str, says: &str| {
+        let args = [
+            "render".as_ref(),
+            scene.as_os_str(),
+            "-o".as_ref(),
+            out.as_os_str(),
+            flag.as_ref(),
+            value.as_ref(),
+        ];
+        refused(&args, says);
+    };
+    with("--threads", "100000", "--threads must be from 1 to 1024, found 100000");
+    // k = 1 used to be accepted and contribute nothing: the one photon only marks the radius.
+    with("--global-k", "1", "--global-k must be from 2 to");
+    with("--caustic-k", "1", "--caustic-k must be from 2 to");
+    let text = QUAD_SCENE.replace("[image]", "[photons]\nglobal_k = 1\n\n[image]");
+    let file = write(dir.path(), "k1.toml", &text);
+    refused(&["info".as_ref(), file.as_os_str()], "k1.toml:7:12: expected a whole number from 2 to");
+}
+
+#[test]
+fn only_regular_files_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    // /dev/zero used to be read for ever; a folder or a FIFO likewise never ends well.
+    refused(&["info".as_ref(), "/dev/zero".as_ref()], "not a regular file");
+    refused(&["info".as_ref(), dir.path().as_os_str()], "this is a folder");
+    let fifo = dir.path().join("scene.fifo");
+    if Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success()) {
+        refused(&["info".as_ref(), fifo.as_os_str()], "not a regular file");
+    }
+    let mesh = QUAD_SCENE.to_string() + "\n[[mesh]]\nfile = \"/dev/zero\"\nmaterial = \"white\"\n";
+    refused(&["info".as_ref(), write(dir.path(), "m.toml", &mesh).as_os_str()], "not a regular file");
+}
+
+#[test]
+fn compare_refuses_what_it_cannot_measure() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name);
+    let good = Image { width: 2, height: 2, pixels: vec![Vec3::splat(0.5); 4] };
+    good.save(&path("good.exr"), 0.0).unwrap();
+    good.save(&path("good.png"), 0.0).unwrap();
+    let mut nan = good.clone();
+    nan.pixels[3] = Vec3::new(f32::NAN, 0.0, 0.0);
+    nan.save(&path("nan.exr"), 0.0).unwrap();
+    // NaN used to give an exit code of 0 and NaN figures.
+    refused(
+        &["compare".as_ref(), path("nan.exr").as_os_str(), path("good.exr").as_os_str()],
+        "1 pixels are NaN or infinite, the first at (1, 1)",
+    );
+    // An unreadable image used to be reported as one that could not be written.
+    std::fs::write(path("junk.exr"), b"not an image").unwrap();
+    refused(
+        &["compare".as_ref(), path("junk.exr").as_os_str(), path("good.exr").as_os_str()],
+        "cannot read image",
+    );
+    // Display values against radiance: measured, with a word about the units.
+    let run = caustix(&["compare".as_ref(), path("good.png").as_os_str(), path("good.exr").as_os_str()]);
+    assert!(run.status.success());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("one image is linear radiance"));
+}
