@@ -74,14 +74,22 @@ pub fn check_writable(path: &Path) -> Result<()> {
 /// beside it, synced, then renamed over it, so a failure (a full disk) never
 /// leaves a truncated file that looks valid. A device is written directly.
 pub fn write_whole(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_with(path, |out| out.write_all(bytes))
+}
+
+/// [`write_whole`] for output made piece by piece: `write` gets a buffered
+/// writer, and the file appears at `path` only once all of it is written.
+pub fn write_with(path: &Path, write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
     if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-        return std::fs::write(path, bytes).map_err(|e| Error::io(path, e));
+        let mut device =
+            std::fs::OpenOptions::new().write(true).open(path).map_err(|e| Error::io(path, e))?;
+        return write(&mut device).and_then(|()| device.flush()).map_err(|e| Error::io(path, e));
     }
     let partial = partial_path(path);
     let written = (|| {
-        let mut file = std::fs::File::create(&partial)?;
-        file.write_all(bytes)?;
-        file.sync_all()?;
+        let mut out = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(&partial)?);
+        write(&mut out)?;
+        out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
         std::fs::rename(&partial, path)
     })();
     if written.is_err() {

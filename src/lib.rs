@@ -41,6 +41,7 @@ pub mod film;
 pub mod integrator;
 pub mod light;
 pub mod material;
+pub mod memory;
 pub mod optics;
 pub mod photon;
 pub mod query;

@@ -136,3 +136,35 @@ fn compare_refuses_what_it_cannot_measure() {
     assert!(run.status.success());
     assert!(String::from_utf8_lossy(&run.stderr).contains("one image is linear radiance"));
 }
+
+/// Requests that could not fit in memory are refused with figures before
+/// anything is allocated (a 16384 x 16384 film and 10^8 photons used to
+/// abort the program; teapot levels 0 and 1025 were accepted by export).
+#[test]
+fn what_would_not_fit_in_memory_is_refused_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let cornell = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
+    let out = dir.path().join("x.png");
+    let render = |extra: &[&str], says: &str| {
+        let mut args: Vec<&OsStr> =
+            vec!["render".as_ref(), cornell.as_os_str(), "-o".as_ref(), out.as_os_str()];
+        args.extend(extra.iter().map(|a| OsStr::new(*a)));
+        refused(&args, says);
+    };
+    let memory = caustix::memory::available().unwrap_or(0) as u64;
+    if memory < 40 << 30 {
+        render(&["--width", "16384", "--height", "16384"], "--width is too large: the image needs about");
+    }
+    if memory < 30 << 30 {
+        render(&["--photons", "100000000"], "--photons is too large: the photons need about");
+    }
+    assert!(!out.exists());
+    let ply = dir.path().join("t.ply");
+    let teapot = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/teapot.toml");
+    for level in ["0", "1025"] {
+        let args = ["export".as_ref(), teapot.as_os_str(), "-o".as_ref(), ply.as_os_str()];
+        let mut args: Vec<&OsStr> = args.to_vec();
+        args.extend(["--teapot-subdivisions".as_ref(), OsStr::new(level)]);
+        refused(&args, "--teapot-subdivisions must be from 1 to 1024");
+    }
+}

@@ -80,7 +80,7 @@ impl BvhLayout {
     /// `Fast` or `Compact`: `Auto` decided for `triangles` triangles.
     pub fn resolve(self, triangles: usize) -> BvhLayout {
         match self {
-            BvhLayout::Auto => match available_memory() {
+            BvhLayout::Auto => match crate::memory::available() {
                 Some(free) if triangles.saturating_mul(Self::FAST_BYTES_PER_TRIANGLE) > free => {
                     BvhLayout::Compact
                 }
@@ -89,14 +89,6 @@ impl BvhLayout {
             chosen => chosen,
         }
     }
-}
-
-/// Memory the kernel could give this process now (Linux's `MemAvailable`).
-fn available_memory() -> Option<usize> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: usize = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
 }
 
 /// Builds the chosen intersector over `meshes` (mesh `i` is geometry `i`),

@@ -117,11 +117,16 @@ fn config(args: &RenderArgs, scene: &caustix::Scene) -> anyhow::Result<RenderCon
     p.global_radius = args.global_radius.or(p.global_radius);
     p.caustic_radius = args.caustic_radius.or(p.caustic_radius);
     p.sppm.initial_radius = args.sppm_radius.or(p.sppm.initial_radius);
-    c.validate().map_err(|e| match e {
+    caustix::integrator::check(scene, &c).map_err(in_flags)?;
+    Ok(c)
+}
+
+/// A library error, with a setting named by the flag that sets it.
+fn in_flags(e: caustix::Error) -> anyhow::Error {
+    match e {
         caustix::Error::Setting { name, message } => anyhow::anyhow!("{} {message}", flag(name)),
         other => other.into(),
-    })?;
-    Ok(c)
+    }
 }
 
 /// The command-line flag that sets the [`RenderConfig`] field `name`.
@@ -170,7 +175,9 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         .expect("valid template")
         .progress_chars("=> "),
     );
-    let rendered = pool.install(|| caustix::render(&scene, accel.as_ref(), &settings, &|n| bar.inc(n)))?;
+    let rendered = pool
+        .install(|| caustix::render(&scene, accel.as_ref(), &settings, &|n| bar.inc(n)))
+        .map_err(in_flags)?;
     bar.finish_and_clear();
 
     for path in rendered.film.write(&output, &args.aov, args.exposure)? {

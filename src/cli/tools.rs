@@ -2,8 +2,6 @@
 
 use std::path::Path;
 
-use anyhow::Context;
-
 use crate::{build_accel, load};
 use caustix::scene::Scene;
 
@@ -14,17 +12,20 @@ pub fn export(scene_path: &Path, output: &Path, teapot_subdivisions: Option<u32>
         "--output {}: write .ply (binary, fast to load) or .obj",
         output.display()
     );
+    if let Some(level) = teapot_subdivisions {
+        crate::in_range("--teapot-subdivisions", level, 1, caustix::config::limits::MAX_TEAPOT_LEVEL)?;
+    }
+    caustix::files::check_writable(output)?;
     let start = std::time::Instant::now();
     let scene = Scene::load_with(scene_path, &caustix::scene::Overrides { teapot_subdivisions })?;
     let (positions, normals, indices) = scene.merged_triangles();
-    let file = std::fs::File::create(output).with_context(|| format!("creating {}", output.display()))?;
-    let out = std::io::BufWriter::with_capacity(1 << 20, file);
-    if extension.as_deref() == Some("ply") {
-        caustix::scene::ply::write_binary(out, &positions, &normals, &indices)
-    } else {
-        caustix::scene::obj::write(out, &positions, &normals, &indices)
-    }
-    .with_context(|| format!("writing {}", output.display()))?;
+    caustix::files::write_with(output, |out| {
+        if extension.as_deref() == Some("ply") {
+            caustix::scene::ply::write_binary(out, &positions, &normals, &indices)
+        } else {
+            caustix::scene::obj::write(out, &positions, &normals, &indices)
+        }
+    })?;
     eprintln!(
         "wrote {}: {} triangles, {} vertices in {:.1} s",
         output.display(),

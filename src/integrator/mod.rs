@@ -112,12 +112,19 @@ pub fn render(
     config: &RenderConfig,
     progress: &Progress,
 ) -> Result<Rendered> {
-    config.validate()?;
+    check(scene, config)?;
     let start = Instant::now();
     let integrator = create(config.integrator);
     let mut rendered = integrator.render(&Context::new(scene, accel, config), progress);
     rendered.stats.elapsed = start.elapsed();
     Ok(rendered)
+}
+
+/// Checks, before any work, that `config` is valid ([`RenderConfig::validate`])
+/// and that a render of `scene` with it fits in the memory available.
+pub fn check(scene: &Scene, config: &RenderConfig) -> Result<()> {
+    config.validate()?;
+    crate::memory::Estimate::of(scene, config).check(crate::memory::available())
 }
 
 /// How many units of work [`render`] reports through `progress` in all.

@@ -337,6 +337,27 @@ impl Builder<'_> {
             }
         };
         let level = self.overrides.teapot_subdivisions.unwrap_or(t.subdivisions);
+        let max = crate::config::limits::MAX_TEAPOT_LEVEL;
+        if !(1..=max).contains(&level) {
+            return Err(Error::input(
+                self.path,
+                format!("teapot subdivisions must be from 1 to {max}, found {level}"),
+            ));
+        }
+        let triangles = 2 * (level as u64).pow(2) * patches.len() as u64;
+        let bytes = triangles * crate::memory::MESH_BYTES_PER_TRIANGLE;
+        if let Some(available) = crate::memory::available().filter(|&a| bytes > a as u64) {
+            return Err(Error::input(
+                self.path,
+                format!(
+                    "teapot #{}: {triangles} triangles at {level} subdivisions need about {:.1} GiB, and {:.1} GiB \
+                     of memory are available; ask for fewer subdivisions",
+                    i + 1,
+                    bytes as f64 / (1u64 << 30) as f64,
+                    available as f64 / (1u64 << 30) as f64
+                ),
+            ));
+        }
         let (positions, indices) = teapot::tessellate(&patches, level as usize);
         let mut m = Mesh::new(format!("teapot #{}", i + 1), positions, indices, None, material);
         // The data is z-up; scenes are y-up: (x, y, z) -> (x, z, -y).
