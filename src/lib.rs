@@ -42,6 +42,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod memory;
+pub mod numeric;
 pub mod optics;
 pub mod photon;
 pub mod query;

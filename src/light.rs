@@ -175,19 +175,23 @@ impl Light {
         d2 / (area * cos_l)
     }
 
-    /// A short description for `caustix info`.
-    pub fn describe(&self) -> String {
+    /// A short description for `caustix info`, with positions in the
+    /// coordinates of a scene whose origin is `origin` (the scene file's).
+    pub fn describe(&self, origin: glam::DVec3) -> String {
         let w = self.power();
+        let at = |p: Vec3| (p.as_dvec3() + origin).as_vec3();
         match self {
-            Light::Point { position, .. } => format!("point at {position}, power {w} W"),
+            Light::Point { position, .. } => format!("point at {}, power {w} W", at(*position)),
             Light::Area { center, u, v, .. } => format!(
-                "area {:.3} x {:.3} at {center}, facing {}, power {w} W",
+                "area {:.3} x {:.3} at {}, facing {}, power {w} W",
                 u.length(),
                 v.length(),
-                u.cross(*v).normalize()
+                at(*center),
+                crate::numeric::unit_cross(*u, *v).unwrap_or(Vec3::ZERO)
             ),
             Light::Spot { position, direction, cone_angle, .. } => format!(
-                "spot at {position} towards {direction}, cone {:.1} deg, power {w} W",
+                "spot at {} towards {direction}, cone {:.1} deg, power {w} W",
+                at(*position),
                 cone_angle.to_degrees()
             ),
         }

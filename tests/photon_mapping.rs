@@ -91,7 +91,8 @@ fn global_map_converges_to_the_exact_indirect_light() {
         for i in 0..points {
             let t = mesh.indices[i * mesh.indices.len() / points];
             let p = t.map(|k| mesh.positions[k as usize]).iter().sum::<Vec3>() / 3.0;
-            let n = -p.normalize(); // facing the inside, where the photons are
+            // Facing the inside, where the photons are (the centre is the file's origin).
+            let n = -(p - common::in_scene(&scene, Vec3::ZERO)).normalize();
             let l = map.radiance(p, n, n, material, &estimate);
             sum += (l.x / exact - 1.0).abs();
         }
@@ -152,7 +153,7 @@ fn a_glass_ball_focuses_light_where_geometric_optics_puts_it() {
     let (mut best_x, mut best_e) = (0.0f32, 0.0f32);
     for i in 0..=300 {
         let x = -2.0 + 4.0 * i as f32 / 300.0;
-        let e = map.irradiance(Vec3::new(x, focus.y, 0.0), Vec3::Y, &estimate).x;
+        let e = map.irradiance(common::in_scene(&scene, Vec3::new(x, focus.y, 0.0)), Vec3::Y, &estimate).x;
         if e > best_e {
             (best_x, best_e) = (x, e);
         }
@@ -240,8 +241,9 @@ fn photons_stop_at_the_front_of_an_area_light() {
         5,
     );
     // The panel's shadow on the ceiling reaches |x|, |z| = 0.25 * 1.0 / 0.9.
-    let behind = photons.iter().filter(|p| p.position.x.abs() < 0.27 && p.position.z.abs() < 0.27).count();
-    let around = photons.iter().filter(|p| p.position.x.abs() < 0.6 && p.position.z.abs() < 0.6).count();
+    let at = |p: &caustix::photon::Photon| common::in_file(&scene, p.position);
+    let behind = photons.iter().filter(|p| at(p).x.abs() < 0.27 && at(p).z.abs() < 0.27).count();
+    let around = photons.iter().filter(|p| at(p).x.abs() < 0.6 && at(p).z.abs() < 0.6).count();
     assert_eq!(behind, 0, "photons behind the panel");
     assert!(around > 1000, "photons must land around its shadow: {around}");
 }

@@ -7,7 +7,7 @@ use std::f32::consts::PI;
 use std::path::Path;
 
 use caustix::accel::embree::EmbreeIntersector;
-use caustix::accel::{Backend, Intersector};
+use caustix::accel::{Backend, Intersector, Ray};
 use caustix::config::IntegratorKind as Integrator;
 use caustix::scene::Scene;
 use caustix::{render, RenderConfig, Rendered};
@@ -38,7 +38,9 @@ fn diffuse_quad_under_a_point_light_has_the_analytic_radiance() {
         let mut checked = 0;
         for y in 0..64 {
             for x in 0..64 {
+                // The ray in the file's coordinates (the scene's are re-centred at the camera).
                 let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5, 64, 64);
+                let ray = Ray { origin: common::in_file(&scene, ray.origin), ..ray };
                 let t = -ray.origin.z / ray.dir.z;
                 let p = ray.at(t);
                 let expected = if p.x.abs() < 2.5 && p.y.abs() < 2.5 {
@@ -129,6 +131,7 @@ fn a_mirror_shows_what_it_faces_times_its_reflectance() {
             for x in 0..8 {
                 // The camera ray reflects straight back to the wall at z = 8.
                 let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5, 8, 8);
+                let ray = Ray { origin: common::in_file(&scene, ray.origin), ..ray };
                 let p_mirror = ray.at(-ray.origin.z / ray.dir.z);
                 let back = Vec3::new(ray.dir.x, ray.dir.y, -ray.dir.z);
                 let p_wall = p_mirror + back * ((8.0 - p_mirror.z) / back.z);

@@ -82,7 +82,7 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
     );
     outln!(
         "camera    eye {}, looking along {}, fov {:.1} deg",
-        scene.camera.eye,
+        scene.origin.as_vec3(),
         -scene.camera.w,
         2.0 * scene.camera.tan_half_fov.atan().to_degrees()
     );
@@ -92,7 +92,8 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
         scene.vertex_count(),
         scene.meshes.len()
     );
-    outln!("bounds    {} to {}", b.min, b.max);
+    let in_file = |p: glam::Vec3| (p.as_dvec3() + scene.origin).as_vec3();
+    outln!("bounds    {} to {}", in_file(b.min), in_file(b.max));
     let bytes: usize = scene.meshes.iter().map(|m| m.bytes()).sum();
     outln!(
         "memory    {:.1} MiB of positions, normals and indices ({:.1} bytes per triangle)",
@@ -122,7 +123,7 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
     }
     outln!("lights    {}", scene.lights.len());
     for l in &scene.lights {
-        outln!("  {}", l.describe());
+        outln!("  {}", l.describe(scene.origin));
     }
     let start = std::time::Instant::now();
     let accel = build_accel(&scene)?;

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::values::{whole_number, Finite, Point, Positive, Power, Reflectance, Scale, Size};
+use super::values::{whole_number, Finite, Point, Position, Positive, Power, Reflectance, Scale, Size};
 
 use crate::config::limits::*;
 use crate::config::PhotonConfig;
@@ -49,8 +49,8 @@ pub struct SceneFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSection {
-    pub eye: Point,
-    pub look_at: Point,
+    pub eye: Position,
+    pub look_at: Position,
     #[serde(default = "default_up")]
     pub up: Point,
     /// Full vertical field of view in degrees.
@@ -294,14 +294,14 @@ pub struct MaterialSection {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PointLightSection {
-    pub position: Point,
+    pub position: Position,
     pub power: Power,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AreaLightSection {
-    pub center: Point,
+    pub center: Position,
     /// Full edge vectors; light leaves from the side `u x v` faces.
     pub u: Spanned<Point>,
     pub v: Point,
@@ -311,7 +311,7 @@ pub struct AreaLightSection {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SpotLightSection {
-    pub position: Point,
+    pub position: Position,
     pub direction: Spanned<Point>,
     /// Half-angle of the cone, degrees.
     pub cone_angle: Spanned<Positive>,
@@ -331,13 +331,13 @@ pub struct TransformSection {
     #[serde(default)]
     pub rotate: Option<Point>,
     #[serde(default)]
-    pub translate: Option<Point>,
+    pub translate: Option<Position>,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SphereSection {
-    pub center: Point,
+    pub center: Position,
     pub radius: Positive,
     #[serde(default = "default_subdivisions", deserialize_with = "sphere_level")]
     pub subdivisions: u32,
@@ -357,7 +357,7 @@ fn sphere_level<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error>
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct QuadSection {
-    pub center: Point,
+    pub center: Position,
     /// Full edge vectors; the front faces `u x v`.
     pub u: Spanned<Point>,
     pub v: Point,
@@ -369,7 +369,7 @@ pub struct QuadSection {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoxSection {
-    pub center: Point,
+    pub center: Position,
     pub size: Size,
     pub material: Spanned<String>,
     #[serde(default)]
@@ -380,7 +380,7 @@ pub struct BoxSection {
 #[serde(deny_unknown_fields)]
 pub struct RingSection {
     /// Centre of the ring's bottom face.
-    pub base: Point,
+    pub base: Position,
     pub inner_radius: Positive,
     pub outer_radius: Spanned<Positive>,
     pub height: Positive,

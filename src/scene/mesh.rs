@@ -1,11 +1,12 @@
 //! Triangle meshes: shared vertex positions, smooth per-vertex normals, and
 //! the smooth normal at a hit from Embree's barycentrics.
 
-use glam::{Mat3, Mat4, Vec3};
+use glam::{DMat3, DMat4, DVec3, Mat4, Vec3};
 use rayon::prelude::*;
 
 use crate::accel::embree::TriangleView;
 pub use crate::bounds::Bounds;
+use crate::numeric;
 
 /// A triangle mesh with one material.
 #[derive(Debug, Clone)]
@@ -37,9 +38,9 @@ impl Mesh {
     ) -> Mesh {
         debug_assert!(indices.iter().flatten().all(|&i| (i as usize) < positions.len()));
         let indices: Vec<[u32; 3]> =
-            indices.into_iter().filter(|&t| face_cross(&positions, t) != Vec3::ZERO).collect();
+            indices.into_iter().filter(|&t| face_normal(&positions, t).is_some()).collect();
         let normals = match normals {
-            Some(n) => n.into_iter().map(|n| n.normalize_or_zero()).collect(),
+            Some(n) => n.into_iter().map(|n| numeric::unit(n).unwrap_or(Vec3::ZERO)).collect(),
             None => vertex_normals(&positions, &indices),
         };
         Mesh { name: name.into(), positions: pad_for_embree(positions), normals, indices, material }
@@ -64,7 +65,7 @@ impl Mesh {
 
     /// Geometric normal of triangle `prim` (unit length, counter-clockwise side).
     pub fn face_normal(&self, prim: u32) -> Vec3 {
-        face_cross(&self.positions, self.indices[prim as usize]).normalize()
+        face_normal(&self.positions, self.indices[prim as usize]).unwrap_or(Vec3::Z)
     }
 
     /// The smooth shading normal at barycentrics `(u, v)` of triangle `prim`:
@@ -75,21 +76,32 @@ impl Mesh {
         let n = (1.0 - u - v) * self.normals[i0 as usize]
             + u * self.normals[i1 as usize]
             + v * self.normals[i2 as usize];
-        n.try_normalize().unwrap_or_else(|| self.face_normal(prim))
+        numeric::unit(n).unwrap_or_else(|| self.face_normal(prim))
     }
 
     /// Applies an affine transform: points by `m`, normals by its inverse
     /// transpose. A mirroring transform (negative determinant) also flips the
     /// winding so that the counter-clockwise side stays the outside.
     pub fn transform(&mut self, m: &Mat4) {
-        for p in &mut self.positions {
-            *p = m.transform_point3(*p);
+        self.place(&m.as_dmat4(), DVec3::ZERO);
+    }
+
+    /// Places the mesh: each point `p` becomes `m p - origin`, computed in
+    /// `f64`, so that a mesh far from the world's origin keeps its detail
+    /// when `origin` is near it (the scene re-centres at the camera). Normals
+    /// go by the inverse transpose, and a mirroring `m` flips the winding.
+    pub fn place(&mut self, m: &DMat4, origin: DVec3) {
+        if *m == DMat4::IDENTITY && origin == DVec3::ZERO {
+            return;
         }
-        let linear = Mat3::from_mat4(*m);
+        self.positions
+            .par_iter_mut()
+            .for_each(|p| *p = (m.transform_point3(p.as_dvec3()) - origin).as_vec3());
+        let linear = DMat3::from_mat4(*m);
         let normal_matrix = linear.inverse().transpose();
-        for n in &mut self.normals {
-            *n = (normal_matrix * *n).normalize_or_zero();
-        }
+        self.normals.par_iter_mut().for_each(|n| {
+            *n = (normal_matrix * n.as_dvec3()).try_normalize().map_or(Vec3::ZERO, |n| n.as_vec3());
+        });
         if linear.determinant() < 0.0 {
             for t in &mut self.indices {
                 t.swap(1, 2);
@@ -107,10 +119,11 @@ fn pad_for_embree(mut positions: Vec<Vec3>) -> Vec<Vec3> {
     positions
 }
 
-/// `(p1 - p0) x (p2 - p0)`: twice the area, along the counter-clockwise normal.
-fn face_cross(positions: &[Vec3], [i0, i1, i2]: [u32; 3]) -> Vec3 {
+/// The unit normal along `(p1 - p0) x (p2 - p0)`, the counter-clockwise side;
+/// `None` for a triangle of no area. Exact at any scale (see [`numeric`]).
+fn face_normal(positions: &[Vec3], [i0, i1, i2]: [u32; 3]) -> Option<Vec3> {
     let p0 = positions[i0 as usize];
-    (positions[i1 as usize] - p0).cross(positions[i2 as usize] - p0)
+    numeric::unit_cross(positions[i1 as usize] - p0, positions[i2 as usize] - p0)
 }
 
 /// Smooth vertex normals: at each vertex, the average of the unit normals of
@@ -138,20 +151,20 @@ pub fn vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
             }
         }
     }
-    slots.iter().map(|&s| sums[s as usize].normalize_or_zero()).collect()
+    slots.iter().map(|&s| numeric::unit(sums[s as usize]).unwrap_or(Vec3::ZERO)).collect()
 }
 
 /// The face's unit normal times its angle at each corner (zero for a
 /// degenerate face).
 fn corner_normals(positions: &[Vec3], tri: [u32; 3]) -> [Vec3; 3] {
-    let Some(face) = face_cross(positions, tri).try_normalize() else {
+    let Some(face) = face_normal(positions, tri) else {
         return [Vec3::ZERO; 3];
     };
     [0, 1, 2].map(|corner| {
         let here = positions[tri[corner] as usize];
         let a = positions[tri[(corner + 1) % 3] as usize] - here;
         let b = positions[tri[(corner + 2) % 3] as usize] - here;
-        a.angle_between(b) * face
+        numeric::angle_between(a, b) * face
     })
 }
 

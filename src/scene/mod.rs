@@ -15,22 +15,29 @@ use std::collections::HashMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use glam::{EulerRot, Mat4, Quat, Vec3};
+use glam::{DMat4, DQuat, DVec3, EulerRot, Vec3};
 use toml::Spanned;
 
 use crate::accel::embree::TriangleView;
+use crate::config::limits::MAX_DISTANCE;
 use crate::config::{PhotonConfig, RenderConfig, SppmConfig};
 use crate::error::{Error, Location, Result};
 use crate::light::Light;
 use crate::material::Material;
 pub use camera::Camera;
 pub use mesh::{Bounds, Mesh};
+use values::Position;
 
 /// Everything needed to render: geometry, materials, lights, camera.
 #[derive(Debug, Clone)]
 pub struct Scene {
     /// The file it was read from.
     pub path: PathBuf,
+    /// Where the camera stands in the file's coordinates. Every position in
+    /// the scene (meshes, lights, the camera at zero) is relative to it,
+    /// computed in `f64` at load: 32-bit floats near the camera keep the
+    /// scene's detail however far from the file's origin it lies.
+    pub origin: DVec3,
     /// The camera.
     pub camera: Camera,
     /// How the file asks to be rendered: its `[image]`, `[render]` and
@@ -75,15 +82,18 @@ impl Scene {
                 message: e.message().trim_end().replace('\n', "; "),
             }
         })?;
-        Builder { text, path, overrides, warnings: Vec::new() }.build(parsed)
+        // Every place is kept relative to the camera (see `Scene::origin`).
+        let origin = parsed.camera.eye.0;
+        Builder { text, path, overrides, origin, warnings: Vec::new() }.build(parsed)
     }
 
-    /// All meshes' positions, normals and triangles in one set (for export).
+    /// All meshes' positions (in the file's coordinates), normals and
+    /// triangles in one set (for export).
     pub fn merged_triangles(&self) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
         let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
         for m in &self.meshes {
             let offset = positions.len() as u32;
-            positions.extend_from_slice(&m.positions);
+            positions.extend(m.positions.iter().map(|p| (p.as_dvec3() + self.origin).as_vec3()));
             normals.extend_from_slice(&m.normals);
             indices.extend(m.indices.iter().map(|t| t.map(|i| i + offset)));
         }
@@ -126,6 +136,8 @@ struct Builder<'a> {
     text: &'a str,
     path: &'a Path,
     overrides: &'a Overrides,
+    /// Where the camera is, in the file's coordinates: the scene's origin.
+    origin: DVec3,
     warnings: Vec<String>,
 }
 
@@ -136,7 +148,7 @@ impl Builder<'_> {
 
     fn build(mut self, f: file::SceneFile) -> Result<Scene> {
         let cam = &f.camera;
-        let camera = Camera::new(cam.eye.0, cam.look_at.0, cam.up.0, cam.fov.0)
+        let camera = Camera::new(self.place(cam.eye), self.place(cam.look_at), cam.up.0, cam.fov.0)
             .map_err(|msg| Error::input(self.path, format!("[camera]: {msg}")))?;
         let (mut materials, material_ids) = self.materials(&f)?;
         let lights = self.lights(&f)?;
@@ -168,12 +180,24 @@ impl Builder<'_> {
                 format!("{}: its transform makes vertices non-finite", m.name),
             ));
         }
+        let far = |p: Vec3| p.abs().max_element() > MAX_DISTANCE;
+        if let Some(m) = meshes.iter().find(|m| m.positions.iter().any(|&p| far(p))) {
+            return Err(Error::input(
+                self.path,
+                format!(
+                    "{} reaches more than {MAX_DISTANCE:e} from the camera: beyond what 32-bit floats can \
+                     trace (their squares overflow); scale the scene down",
+                    m.name
+                ),
+            ));
+        }
         if lights.is_empty() {
             self.warnings.push("the scene has no lights; lit renders will be black".into());
         }
         let config = self.config(&f)?;
         Ok(Scene {
             path: self.path.to_path_buf(),
+            origin: self.origin,
             camera,
             config,
             materials,
@@ -254,13 +278,18 @@ impl Builder<'_> {
     fn lights(&self, f: &file::SceneFile) -> Result<Vec<Light>> {
         let mut lights = Vec::new();
         for l in &f.point_light {
-            lights.push(Light::Point { position: l.position.0, power: l.power.0 });
+            lights.push(Light::Point { position: self.place(l.position), power: l.power.0 });
         }
         for l in &f.area_light {
-            if l.u.get_ref().0.cross(l.v.0) == Vec3::ZERO {
+            if crate::numeric::unit_cross(l.u.get_ref().0, l.v.0).is_none() {
                 return Err(self.error_at(l.u.span(), "the area light's edges u and v are zero or parallel"));
             }
-            lights.push(Light::Area { center: l.center.0, u: l.u.get_ref().0, v: l.v.0, power: l.power.0 });
+            lights.push(Light::Area {
+                center: self.place(l.center),
+                u: l.u.get_ref().0,
+                v: l.v.0,
+                power: l.power.0,
+            });
         }
         for l in &f.spot_light {
             lights.push(self.spot_light(l)?);
@@ -271,40 +300,39 @@ impl Builder<'_> {
     /// The built-in shapes: spheres, quads, boxes, rings and teapots.
     fn shapes(&self, f: &file::SceneFile, lookup: &MaterialLookup) -> Result<Vec<Mesh>> {
         let mut meshes = Vec::new();
+        // Each shape is made around the origin at unit size where it can be,
+        // and placed by one f64 matrix: exact at any size and distance.
+        let at = |center: Position| DMat4::from_translation(center.0);
         for (i, s) in f.sphere.iter().enumerate() {
             let mut m = shapes::sphere(
                 &format!("sphere #{}", i + 1),
-                s.center.0,
-                s.radius.0,
+                Vec3::ZERO,
+                1.0,
                 s.subdivisions,
                 lookup(&s.material)?,
             );
-            m.transform(&transform_matrix(&s.transform));
+            let size = DMat4::from_scale(DVec3::splat(s.radius.0 as f64));
+            m.place(&(transform_matrix(&s.transform) * at(s.center) * size), self.origin);
             meshes.push(m);
         }
         for (i, q) in f.quad.iter().enumerate() {
-            if q.u.get_ref().0.cross(q.v.0) == Vec3::ZERO {
+            if crate::numeric::unit_cross(q.u.get_ref().0, q.v.0).is_none() {
                 return Err(self.error_at(q.u.span(), "the quad's edges u and v are zero or parallel"));
             }
             let mut m = shapes::quad(
                 &format!("quad #{}", i + 1),
-                q.center.0,
+                Vec3::ZERO,
                 q.u.get_ref().0,
                 q.v.0,
                 lookup(&q.material)?,
             );
-            m.transform(&transform_matrix(&q.transform));
+            m.place(&(transform_matrix(&q.transform) * at(q.center)), self.origin);
             meshes.push(m);
         }
         for (i, b) in f.cuboid.iter().enumerate() {
             let half = 0.5 * b.size.0;
-            let mut m = shapes::cuboid(
-                &format!("box #{}", i + 1),
-                b.center.0 - half,
-                b.center.0 + half,
-                lookup(&b.material)?,
-            );
-            m.transform(&transform_matrix(&b.transform));
+            let mut m = shapes::cuboid(&format!("box #{}", i + 1), -half, half, lookup(&b.material)?);
+            m.place(&(transform_matrix(&b.transform) * at(b.center)), self.origin);
             meshes.push(m);
         }
         for (i, r) in f.ring.iter().enumerate() {
@@ -317,8 +345,8 @@ impl Builder<'_> {
             }
             let name = format!("ring #{}", i + 1);
             let mut m =
-                shapes::ring(&name, r.base.0, inner, outer, r.height.0, r.segments, lookup(&r.material)?);
-            m.transform(&transform_matrix(&r.transform));
+                shapes::ring(&name, Vec3::ZERO, inner, outer, r.height.0, r.segments, lookup(&r.material)?);
+            m.place(&(transform_matrix(&r.transform) * at(r.base)), self.origin);
             meshes.push(m);
         }
         for (i, t) in f.teapot.iter().enumerate() {
@@ -361,7 +389,10 @@ impl Builder<'_> {
         let (positions, indices) = teapot::tessellate(&patches, level as usize);
         let mut m = Mesh::new(format!("teapot #{}", i + 1), positions, indices, None, material);
         // The data is z-up; scenes are y-up: (x, y, z) -> (x, z, -y).
-        m.transform(&(transform_matrix(&t.transform) * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2)));
+        m.place(
+            &(transform_matrix(&t.transform) * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2)),
+            self.origin,
+        );
         Ok(m)
     }
 
@@ -392,7 +423,7 @@ impl Builder<'_> {
             obj_warnings.extend(contents.warnings);
             let matrix = transform_matrix(&m.transform);
             for mut mesh in contents.meshes {
-                mesh.transform(&matrix);
+                mesh.place(&matrix, self.origin);
                 meshes.push(mesh);
             }
         }
@@ -442,7 +473,7 @@ impl Builder<'_> {
             }
         };
         Ok(Light::Spot {
-            position: l.position.0,
+            position: self.place(l.position),
             direction,
             cone_angle: cone.to_radians(),
             falloff_start: falloff.to_radians(),
@@ -450,17 +481,22 @@ impl Builder<'_> {
         })
     }
 
+    /// A place in the file, relative to the camera (see [`Scene::origin`]).
+    fn place(&self, p: Position) -> Vec3 {
+        (p.0 - self.origin).as_vec3()
+    }
+
     fn relative(&self, file: &str) -> PathBuf {
         self.path.parent().unwrap_or(Path::new(".")).join(file)
     }
 }
 
-/// Scale, then rotate about x, y, z (degrees), then translate.
-fn transform_matrix(t: &file::TransformSection) -> Mat4 {
-    let scale = t.scale.map_or(Vec3::ONE, |s| s.0);
-    let [rx, ry, rz] = t.rotate.map_or(Vec3::ZERO, |r| r.0).to_array().map(f32::to_radians);
-    let rotation = Quat::from_euler(EulerRot::ZYX, rz, ry, rx);
-    Mat4::from_scale_rotation_translation(scale, rotation, t.translate.map_or(Vec3::ZERO, |v| v.0))
+/// Scale, then rotate about x, y, z (degrees), then translate, in `f64`.
+fn transform_matrix(t: &file::TransformSection) -> DMat4 {
+    let scale = t.scale.map_or(DVec3::ONE, |s| s.0.as_dvec3());
+    let [rx, ry, rz] = t.rotate.map_or(DVec3::ZERO, |r| r.0.as_dvec3()).to_array().map(f64::to_radians);
+    let rotation = DQuat::from_euler(EulerRot::ZYX, rz, ry, rx);
+    DMat4::from_scale_rotation_translation(scale, rotation, t.translate.map_or(DVec3::ZERO, |v| v.0))
 }
 
 /// Meshes from an OBJ or PLY file (by extension). PLY files have no
@@ -491,7 +527,7 @@ mod tests {
             ..Default::default()
         };
         // X by 90 takes +y to +z; then Y by 90 takes +z to +x.
-        let p = transform_matrix(&t).transform_point3(Vec3::Y);
-        assert!(p.abs_diff_eq(Vec3::X, 1e-6), "{p}");
+        let p = transform_matrix(&t).transform_point3(DVec3::Y);
+        assert!(p.abs_diff_eq(DVec3::X, 1e-12), "{p}");
     }
 }

@@ -3,33 +3,33 @@
 
 use std::fmt;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
 /// Reads a number or a `[x, y, z]` array (a number means all three equal),
-/// each checked by `check`, which returns what is wrong.
+/// each checked by `check`, which returns what is wrong. The values are kept
+/// in `f64`; each must also fit in an `f32`.
 fn number_or_triple<'de, D: Deserializer<'de>>(
     d: D,
     allow_single: bool,
     check: fn(f64) -> Option<&'static str>,
-) -> Result<Vec3, D::Error> {
+) -> Result<DVec3, D::Error> {
     struct V {
         allow_single: bool,
         check: fn(f64) -> Option<&'static str>,
     }
     impl V {
-        fn checked<E: de::Error>(&self, x: f64) -> Result<f32, E> {
-            let narrow = x as f32;
-            let x = if x.is_finite() && !narrow.is_finite() { f64::INFINITY } else { x };
+        fn checked<E: de::Error>(&self, x: f64) -> Result<f64, E> {
+            let x = if x.is_finite() && !(x as f32).is_finite() { f64::INFINITY } else { x };
             match (self.check)(x) {
-                None => Ok(narrow),
+                None => Ok(x),
                 Some(what) => Err(E::custom(format!("{what}, found {x}"))),
             }
         }
     }
     impl<'de> Visitor<'de> for V {
-        type Value = Vec3;
+        type Value = DVec3;
         fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
             if self.allow_single {
                 f.write_str("a number or an array of 3 numbers")
@@ -37,23 +37,23 @@ fn number_or_triple<'de, D: Deserializer<'de>>(
                 f.write_str("an array of 3 numbers [x, y, z]")
             }
         }
-        fn visit_f64<E: de::Error>(self, x: f64) -> Result<Vec3, E> {
+        fn visit_f64<E: de::Error>(self, x: f64) -> Result<DVec3, E> {
             if !self.allow_single {
                 return Err(E::invalid_type(de::Unexpected::Float(x), &self));
             }
-            Ok(Vec3::splat(self.checked(x)?))
+            Ok(DVec3::splat(self.checked(x)?))
         }
-        fn visit_i64<E: de::Error>(self, x: i64) -> Result<Vec3, E> {
+        fn visit_i64<E: de::Error>(self, x: i64) -> Result<DVec3, E> {
             if !self.allow_single {
                 return Err(E::invalid_type(de::Unexpected::Signed(x), &self));
             }
-            Ok(Vec3::splat(self.checked(x as f64)?))
+            Ok(DVec3::splat(self.checked(x as f64)?))
         }
-        fn visit_u64<E: de::Error>(self, x: u64) -> Result<Vec3, E> {
+        fn visit_u64<E: de::Error>(self, x: u64) -> Result<DVec3, E> {
             self.visit_i64(x.min(i64::MAX as u64) as i64)
         }
-        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec3, A::Error> {
-            let mut out = [0.0f32; 3];
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<DVec3, A::Error> {
+            let mut out = [0.0f64; 3];
             for (i, slot) in out.iter_mut().enumerate() {
                 let x: f64 = seq.next_element()?.ok_or_else(|| de::Error::invalid_length(i, &self))?;
                 *slot = self.checked(x)?;
@@ -61,7 +61,7 @@ fn number_or_triple<'de, D: Deserializer<'de>>(
             if seq.next_element::<de::IgnoredAny>()?.is_some() {
                 return Err(de::Error::invalid_length(4, &self));
             }
-            Ok(Vec3::from_array(out))
+            Ok(DVec3::from_array(out))
         }
     }
     d.deserialize_any(V { allow_single, check })
@@ -94,16 +94,26 @@ macro_rules! vector_type {
         pub struct $name(pub Vec3);
         impl<'de> Deserialize<'de> for $name {
             fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-                number_or_triple(d, $single, $check).map($name)
+                number_or_triple(d, $single, $check).map(|v| $name(v.as_vec3()))
             }
         }
     };
 }
 
 vector_type!(
-    /// A point or direction `[x, y, z]` of finite numbers.
+    /// A direction or an edge `[x, y, z]` of finite numbers.
     Point, single: false, finite
 );
+
+/// A place `[x, y, z]` of finite numbers, kept in `f64` until the scene is
+/// re-centred at the camera (far from the origin, `f32` would lose detail).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Position(pub DVec3);
+impl<'de> Deserialize<'de> for Position {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        number_or_triple(d, false, finite).map(Position)
+    }
+}
 vector_type!(
     /// A reflectance: one number or `[r, g, b]`, each in `[0, 1]`.
     Reflectance, single: true, fraction

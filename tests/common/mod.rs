@@ -58,3 +58,14 @@ pub fn mesh_area(scene: &caustix::scene::Scene) -> f32 {
         })
         .sum()
 }
+
+/// A point given in the scene file's coordinates, in the scene's own
+/// (re-centred at the camera: see `Scene::origin`).
+pub fn in_scene(scene: &caustix::scene::Scene, file_point: glam::Vec3) -> glam::Vec3 {
+    (file_point.as_dvec3() - scene.origin).as_vec3()
+}
+
+/// A point of the scene, in the scene file's coordinates.
+pub fn in_file(scene: &caustix::scene::Scene, point: glam::Vec3) -> glam::Vec3 {
+    (point.as_dvec3() + scene.origin).as_vec3()
+}
