@@ -10,6 +10,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use crate::accel::Ray;
+use crate::numeric;
 use crate::sampling::{around, cosine_hemisphere, uniform_cone, uniform_sphere};
 
 /// One sample of the light arriving at a point.
@@ -78,20 +79,22 @@ impl Light {
     pub fn sample_incident(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         match *self {
             Light::Point { position, .. } | Light::Spot { position, .. } => {
-                let to_p = p - position;
+                // In f64: the squared distance of a tiny scene underflows in f32.
+                let to_p = (p - position).as_dvec3();
                 let d2 = to_p.length_squared();
-                let (_, intensity) = self.intensity(to_p / d2.sqrt())?;
-                Some(LightSample { position, irradiance: intensity / d2 })
+                let (_, intensity) = self.intensity((to_p / d2.sqrt()).as_vec3())?;
+                Some(LightSample { position, irradiance: (intensity.as_dvec3() / d2).as_vec3() })
             }
             Light::Area { center, u: eu, v: ev, power } => {
                 // Uniform over the area (pdf 1/A) of a Lambertian emitter with
                 // radiance L = power / (pi A): E = L cos_l A / d^2 = power cos_l / (pi d^2).
                 let position = center + (u.x - 0.5) * eu + (u.y - 0.5) * ev;
-                let normal = eu.cross(ev).normalize();
-                let to_p = p - position;
+                let (normal, _) = area_face(eu, ev);
+                let to_p = (p - position).as_dvec3();
                 let d2 = to_p.length_squared();
-                let cos_l = normal.dot(to_p) / d2.sqrt();
-                (cos_l > 0.0).then(|| LightSample { position, irradiance: power * (cos_l / (PI * d2)) })
+                let cos_l = normal.as_dvec3().dot(to_p) / d2.sqrt();
+                let irradiance = power.as_dvec3() * (cos_l / (std::f64::consts::PI * d2));
+                (cos_l > 0.0).then(|| LightSample { position, irradiance: irradiance.as_vec3() })
             }
         }
     }
@@ -101,7 +104,7 @@ impl Light {
     /// Only area lights have a surface to hit.
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, Vec3)> {
         let Light::Area { center, u, v, power } = *self else { return None };
-        let normal = u.cross(v);
+        let (normal, area) = area_face(u, v);
         let facing = ray.dir.dot(normal);
         if facing >= 0.0 {
             return None; // parallel, or arriving at the back, which does not emit
@@ -110,9 +113,11 @@ impl Light {
         if !(t > 0.0 && t <= ray.t_max) {
             return None;
         }
-        let local = ray.at(t) - center;
-        let (a, b) = (local.dot(u) / u.length_squared(), local.dot(v) / v.length_squared());
-        (a.abs() <= 0.5 && b.abs() <= 0.5).then(|| (t, power / (PI * normal.length())))
+        // Where on the light, in units of its edges (in f64: tiny edges' squares underflow).
+        let local = (ray.at(t) - center).as_dvec3();
+        let along = |e: Vec3| local.dot(e.as_dvec3()) / e.as_dvec3().length_squared();
+        let radiance = (power.as_dvec3() / (std::f64::consts::PI * area)).as_vec3();
+        (along(u).abs() <= 0.5 && along(v).abs() <= 0.5).then_some((t, radiance))
     }
 
     /// Emits one photon from the uniforms `u` (position on the light) and `v`
@@ -127,16 +132,22 @@ impl Light {
         match *self {
             Light::Point { position, power } => (Ray::new(position, uniform_sphere(v)), power),
             Light::Area { center, u: eu, v: ev, power } => {
-                let origin = center + (u.x - 0.5) * eu + (u.y - 0.5) * ev;
-                let dir = around(eu.cross(ev).normalize(), cosine_hemisphere(v));
+                let on = center + (u.x - 0.5) * eu + (u.y - 0.5) * ev;
+                let (normal, _) = area_face(eu, ev);
+                let dir = around(normal, cosine_hemisphere(v));
+                // Leave from just in front of the light, by more than the
+                // rounding error of the point on it: a surface flush with the
+                // light (a ceiling) must not catch its photons at once.
+                let error = 32.0 * f32::EPSILON * (center.abs() + (0.5 * eu).abs() + (0.5 * ev).abs());
+                let origin = on + (normal.abs().dot(error) + f32::MIN_POSITIVE) * normal;
                 (Ray::new(origin, dir), power)
             }
             Light::Spot { position, direction, cone_angle, .. } => {
                 // Uniform in solid angle over the cone (pdf 1 / omega), so the
                 // photon carries intensity / pdf = I(theta) * omega.
-                let cos_total = cone_angle.cos();
-                let dir = around(direction, uniform_cone(v, cos_total));
-                let omega = 2.0 * PI * (1.0 - cos_total);
+                let one_minus_cos = numeric::one_minus_cos(cone_angle);
+                let dir = around(direction, uniform_cone(v, one_minus_cos));
+                let omega = 2.0 * PI * one_minus_cos;
                 let intensity = self.intensity(dir).map_or(Vec3::ZERO, |(_, i)| i);
                 (Ray::new(position, dir), intensity * omega)
             }
@@ -150,7 +161,7 @@ impl Light {
         match *self {
             Light::Point { position, power } => Some((position, power / (4.0 * PI))),
             Light::Spot { position, direction, cone_angle, falloff_start, power } => {
-                let falloff = spot_falloff(direction.dot(dir), cone_angle, falloff_start);
+                let falloff = spot_falloff(direction, dir, cone_angle, falloff_start);
                 (falloff > 0.0)
                     .then(|| (position, spot_peak_intensity(power, cone_angle, falloff_start) * falloff))
             }
@@ -164,15 +175,14 @@ impl Light {
     /// and behind the light.
     pub fn pdf_solid_angle(&self, on: Vec3, from: Vec3) -> f32 {
         let Light::Area { u, v, .. } = *self else { return 0.0 };
-        let normal = u.cross(v);
-        let area = normal.length();
-        let to = from - on;
+        let (normal, area) = area_face(u, v);
+        let to = (from - on).as_dvec3();
         let d2 = to.length_squared();
-        let cos_l = normal.dot(to) / (area * d2.sqrt());
+        let cos_l = normal.as_dvec3().dot(to) / d2.sqrt();
         if cos_l <= 0.0 {
             return 0.0;
         }
-        d2 / (area * cos_l)
+        (d2 / (area * cos_l)) as f32
     }
 
     /// A short description for `caustix info`, with positions in the
@@ -207,14 +217,27 @@ pub fn nearest_emitter<'a>(lights: &'a [Light], ray: &Ray) -> Option<(&'a Light,
         .min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
-/// The smooth edge of a spot light: 1 inside `falloff_start`, 0 outside
-/// `cone_angle`, and a smoothstep in the cosine between (as pbrt-v4 does).
-fn spot_falloff(cos_theta: f32, cone_angle: f32, falloff_start: f32) -> f32 {
-    let (cos_total, cos_start) = (cone_angle.cos(), falloff_start.cos());
-    if cos_start - cos_total <= 0.0 {
-        return if cos_theta >= cos_total { 1.0 } else { 0.0 };
+/// An area light's unit normal (the side `u x v` faces) and its area, exact
+/// at any size (see [`crate::numeric`]).
+fn area_face(u: Vec3, v: Vec3) -> (Vec3, f64) {
+    (numeric::unit_cross(u, v).unwrap_or(Vec3::ZERO), numeric::cross_length(u, v))
+}
+
+/// The smooth edge of a spot light with unit `axis`, towards the unit
+/// direction `dir`: 1 inside `falloff_start`, 0 outside `cone_angle`, and a
+/// smoothstep in the cosine between (as pbrt-v4 does). Cosines are handled
+/// as `1 - cos`, from the sine, so a cone of 0.01 degrees keeps its shape
+/// where `f32` cosines all round to 1.
+fn spot_falloff(axis: Vec3, dir: Vec3, cone_angle: f32, falloff_start: f32) -> f32 {
+    let one_minus_cos = numeric::one_minus_cos_between(axis, dir);
+    let (total, start) = (numeric::one_minus_cos(cone_angle), numeric::one_minus_cos(falloff_start));
+    if one_minus_cos > total {
+        return 0.0;
     }
-    let x = ((cos_theta - cos_total) / (cos_start - cos_total)).clamp(0.0, 1.0);
+    if total - start <= 0.0 {
+        return 1.0;
+    }
+    let x = ((total - one_minus_cos) / (total - start)).clamp(0.0, 1.0);
     x * x * (3.0 - 2.0 * x)
 }
 
@@ -223,8 +246,8 @@ fn spot_falloff(cos_theta: f32, cone_angle: f32, falloff_start: f32) -> f32 {
 /// `2 pi ((1 - cos_start) + (cos_start - cos_total) / 2)`, exactly, because a
 /// smoothstep averages to one half.
 fn spot_peak_intensity(power: Vec3, cone_angle: f32, falloff_start: f32) -> Vec3 {
-    let (cos_total, cos_start) = (cone_angle.cos(), falloff_start.cos());
-    power / (2.0 * PI * ((1.0 - cos_start) + 0.5 * (cos_start - cos_total)))
+    let (total, start) = (numeric::one_minus_cos(cone_angle), numeric::one_minus_cos(falloff_start));
+    power / (2.0 * PI * (start + 0.5 * (total - start)))
 }
 
 #[cfg(test)]
@@ -301,6 +324,16 @@ mod tests {
                 falloff_start: 25f32.to_radians(),
                 power: Vec3::splat(5.0),
             },
+            // So narrow that every f32 cosine in it rounds to 1 (it used to give NaN).
+            Light::Spot {
+                position: Vec3::ZERO,
+                direction: Vec3::Y,
+                cone_angle: 0.01f32.to_radians(),
+                falloff_start: 0.008f32.to_radians(),
+                power: Vec3::splat(5.0),
+            },
+            // An area light whose u x v underflows in f32 (it used to give NaN).
+            Light::Area { center: Vec3::Y, u: Vec3::X, v: Vec3::Z * 1e-25, power: Vec3::splat(7.0) },
         ];
         for light in lights {
             let mut rng = Rng::new(9, 9);

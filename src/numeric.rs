@@ -45,6 +45,16 @@ pub fn one_minus_cos(angle: f32) -> f32 {
     (2.0 * s * s) as f32
 }
 
+/// `1 - cos` of the angle between the unit vectors `a` and `b`, from the
+/// sine, so that small angles keep their size (2 for opposite vectors).
+pub fn one_minus_cos_between(a: Vec3, b: Vec3) -> f32 {
+    let cos = a.dot(b);
+    if cos <= 0.0 {
+        return 1.0 - cos;
+    }
+    a.cross(b).length_squared() / (1.0 + cos)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -71,5 +81,8 @@ mod tests {
         let exact = angle as f64 * angle as f64 / 2.0;
         assert!((one_minus_cos(angle) as f64 / exact - 1.0).abs() < 1e-6);
         assert!((one_minus_cos(1.0) - (1.0 - 1.0f32.cos())).abs() < 1e-7);
+        let tilted = Vec3::new(angle.sin(), 0.0, angle.cos());
+        assert!((one_minus_cos_between(Vec3::Z, tilted) as f64 / exact - 1.0).abs() < 1e-5);
+        assert_eq!(one_minus_cos_between(Vec3::Z, -Vec3::Z), 2.0);
     }
 }

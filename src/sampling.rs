@@ -87,11 +87,13 @@ pub fn phong_lobe_pdf(cos: f32, exponent: f32) -> f32 {
     (exponent + 1.0) / std::f32::consts::TAU * cos.max(0.0).powf(exponent)
 }
 
-/// A direction about +z uniform in solid angle within the cone of
-/// half-angle cosine `cos_max`; pdf `1 / (2 pi (1 - cos_max))`.
-pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
-    let cos = 1.0 - u.x * (1.0 - cos_max);
-    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+/// A direction about +z uniform in solid angle within the cone whose
+/// half-angle has `1 - cos` equal to `one_minus_cos_max` (given so, a cone
+/// of a hundredth of a degree keeps its width); pdf `1 / (2 pi (1 - cos_max))`.
+pub fn uniform_cone(u: Vec2, one_minus_cos_max: f32) -> Vec3 {
+    let one_minus_cos = u.x * one_minus_cos_max;
+    let cos = 1.0 - one_minus_cos;
+    let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
     let phi = std::f32::consts::TAU * u.y;
     Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)
 }

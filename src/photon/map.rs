@@ -24,13 +24,17 @@ pub struct Photon {
 }
 
 impl Photon {
-    /// Whether this photon counts as light arriving at a surface with unit
-    /// normal `n` (on the viewer's side) near it: it came from above, and
-    /// landed on a surface facing the same way. Near a corner a search
-    /// sphere also reaches the other wall, whose photons are not light
-    /// arriving here.
-    pub fn lights_surface(&self, n: Vec3) -> bool {
-        self.incoming.dot(n) > 0.0 && self.normal.dot(n) >= 0.9
+    /// Whether this photon counts as light arriving at the point `p` (unit
+    /// normal `n` on the viewer's side) of a surface, in a search of radius
+    /// `r`: it came from above, landed on a surface facing the same way, and
+    /// lies in a disc around `p`, within `r / 4` of its plane. Near a corner
+    /// a search sphere also reaches the other wall, and through a thin shell
+    /// (a closed sphere over a floor) the parallel surface on the far side:
+    /// neither holds light arriving here.
+    pub fn lights_surface(&self, p: Vec3, n: Vec3, r: f32) -> bool {
+        self.incoming.dot(n) > 0.0
+            && self.normal.dot(n) >= 0.9
+            && (self.position - p).dot(n).abs() <= 0.25 * r
     }
 }
 
@@ -46,8 +50,9 @@ pub struct PhotonMap {
 /// Irradiance estimated ahead of time at a subset of photon positions
 /// (Christensen 1999), so final gathering needs only a short nearest lookup.
 struct Precomputed {
-    /// (position, normal, irradiance) per chosen photon.
-    points: Vec<(Vec3, Vec3, Vec3)>,
+    /// Per chosen photon: position, normal, irradiance, and the squared
+    /// radius of the disc the estimate gathered over (where it holds).
+    points: Vec<(Vec3, Vec3, Vec3, f32)>,
     tree: ImmutableKdTree<f32, 3>,
 }
 
@@ -68,11 +73,14 @@ impl PhotonMap {
     /// keeps it for [`PhotonMap::precomputed_radiance`].
     pub fn precompute_irradiance(&mut self, stride: usize, estimate: &Estimate) {
         use rayon::prelude::*;
-        let points: Vec<(Vec3, Vec3, Vec3)> = self
+        let points: Vec<(Vec3, Vec3, Vec3, f32)> = self
             .photons
             .par_iter()
             .step_by(stride.max(1))
-            .map(|p| (p.position, p.normal, self.irradiance(p.position, p.normal, estimate)))
+            .map(|p| {
+                let (irradiance, r2) = self.irradiance_over(p.position, p.normal, estimate);
+                (p.position, p.normal, irradiance, r2)
+            })
             .collect();
         if points.is_empty() {
             return;
@@ -84,8 +92,9 @@ impl PhotonMap {
 
     /// Radiance leaving `p` (normal `n`) by the diffuse part of `material`,
     /// from the nearest precomputed irradiance on a surface facing the same
-    /// way: `diffuse / pi * E`. Falls back to a full estimate when nothing was
-    /// precomputed nearby.
+    /// way whose own gathering disc reaches `p`: `diffuse / pi * E`. Falls
+    /// back to a full estimate when none does, so that light gathered over a
+    /// tiny disc (the spot of a narrow beam) is never spread beyond it.
     pub fn precomputed_radiance(&self, p: Vec3, n: Vec3, material: &Material, estimate: &Estimate) -> Vec3 {
         let Some(pre) = &self.precomputed else {
             return self.radiance(p, n, n, material, estimate);
@@ -94,8 +103,8 @@ impl PhotonMap {
         // Usually the nearest point lies on the same surface; only if not,
         // look a little further.
         let nearest = pre.tree.query(&p.to_array()).nearest_one::<SquaredEuclidean<f32>>().execute();
-        let (_, normal, irradiance) = pre.points[nearest.item as usize];
-        if nearest.distance <= estimate.max_radius * estimate.max_radius && normal.dot(n) > 0.9 {
+        let (_, normal, irradiance, r2) = pre.points[nearest.item as usize];
+        if nearest.distance <= r2 && normal.dot(n) > 0.9 {
             return to_radiance(irradiance);
         }
         let near = pre
@@ -105,12 +114,12 @@ impl PhotonMap {
             .within(estimate.max_radius * estimate.max_radius)
             .execute();
         for candidate in near {
-            let (_, normal, irradiance) = pre.points[candidate.item as usize];
-            if normal.dot(n) > 0.9 {
+            let (_, normal, irradiance, r2) = pre.points[candidate.item as usize];
+            if candidate.distance <= r2 && normal.dot(n) > 0.9 {
                 return to_radiance(irradiance);
             }
         }
-        Vec3::ZERO
+        self.radiance(p, n, n, &Material { diffuse: material.diffuse, ..Material::default() }, estimate)
     }
 
     /// The stored photons.
@@ -142,10 +151,23 @@ impl PhotonMap {
     /// the whole search disc (`r = max_radius`): shrinking it to the few
     /// photons found would turn each stray photon into a bright speck.
     pub fn radiance(&self, p: Vec3, n: Vec3, wo: Vec3, material: &Material, estimate: &Estimate) -> Vec3 {
+        self.radiance_over(p, n, wo, material, estimate).0
+    }
+
+    /// [`PhotonMap::radiance`], and the squared radius of the disc it used.
+    fn radiance_over(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        wo: Vec3,
+        material: &Material,
+        estimate: &Estimate,
+    ) -> (Vec3, f32) {
         let mut found = self.nearest(p, estimate.k, estimate.max_radius);
-        let Some(&(farthest, _)) = found.last() else { return Vec3::ZERO };
+        let whole_disc = estimate.max_radius * estimate.max_radius;
+        let Some(&(farthest, _)) = found.last() else { return (Vec3::ZERO, whole_disc) };
         let r2 = if found.len() < estimate.k {
-            estimate.max_radius * estimate.max_radius
+            whole_disc
         } else {
             // The k-th photon only marks the radius: it lies on the disc's
             // edge by construction, so counting it would overestimate the
@@ -154,13 +176,13 @@ impl PhotonMap {
             farthest
         };
         if r2 <= 0.0 {
-            return Vec3::ZERO;
+            return (Vec3::ZERO, 0.0);
         }
         let r = r2.sqrt();
         let mut sum = Vec3::ZERO;
         for &(d2, i) in &found {
             let photon = &self.photons[i];
-            if !photon.lights_surface(n) {
+            if !photon.lights_surface(p, n, r) {
                 continue;
             }
             let weight = match estimate.cone_filter {
@@ -171,16 +193,22 @@ impl PhotonMap {
         }
         // The cone filter's weights integrate to (1 - 2 / (3 k_c)) pi r^2.
         let area = std::f32::consts::PI * r2 * estimate.cone_filter.map_or(1.0, |kc| 1.0 - 2.0 / (3.0 * kc));
-        sum / area
+        (sum / area, r2)
     }
 
     /// Irradiance at `p` on a surface with normal `n`: `sum power / (pi r^2)`
     /// over the nearest photons from above (for tests and diagnostics).
     pub fn irradiance(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> Vec3 {
+        self.irradiance_over(p, n, estimate).0
+    }
+
+    /// [`PhotonMap::irradiance`], and the squared radius of the disc it used.
+    fn irradiance_over(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> (Vec3, f32) {
         let lambertian = Material { diffuse: Vec3::ONE, ..Material::default() };
         // A white Lambertian BRDF is 1 / pi, so radiance * pi is irradiance.
-        self.radiance(p, n, n, &lambertian, &Estimate { cone_filter: None, ..*estimate })
-            * std::f32::consts::PI
+        let (radiance, r2) =
+            self.radiance_over(p, n, n, &lambertian, &Estimate { cone_filter: None, ..*estimate });
+        (radiance * std::f32::consts::PI, r2)
     }
 }
 

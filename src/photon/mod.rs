@@ -149,7 +149,7 @@ fn specular_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
 /// uniformly inside it. The density of the mixture at a direction sums over
 /// every cone containing it, so overlapping cones are not counted twice.
 struct Cones {
-    /// (axis, cos of half-angle, solid angle)
+    /// (axis, 1 - cos of the half-angle, solid angle)
     cones: Vec<(Vec3, f32, f32)>,
     total: f32,
 }
@@ -167,8 +167,8 @@ impl Cones {
             }
             // A little wider than the sphere, for rounding at its rim.
             let sin = (radius / d * 1.01).min(1.0);
-            let cos = (1.0 - sin * sin).sqrt();
-            cones.push((to / d, cos, std::f32::consts::TAU * (1.0 - cos)));
+            let one_minus_cos = sin * sin / (1.0 + (1.0 - sin * sin).sqrt());
+            cones.push((to / d, one_minus_cos, std::f32::consts::TAU * one_minus_cos));
         }
         let total = cones.iter().map(|c| c.2).sum();
         (total > 0.0).then_some(Cones { cones, total })
@@ -182,14 +182,16 @@ impl Cones {
             pick -= c.2;
             hit
         });
-        let &(axis, cos_max, _) = cone.unwrap_or(self.cones.last().expect("at least one cone"));
-        around(axis, uniform_cone(v, cos_max))
+        let &(axis, one_minus_cos, _) = cone.unwrap_or(self.cones.last().expect("at least one cone"));
+        around(axis, uniform_cone(v, one_minus_cos))
     }
 
     /// The density (per steradian) of [`Cones::sample`] at `dir`.
     fn pdf(&self, dir: Vec3) -> f32 {
-        let inside = self.cones.iter().filter(|c| dir.dot(c.0) >= c.1).count();
-        inside as f32 / self.total
+        let inside =
+            self.cones.iter().filter(|c| crate::numeric::one_minus_cos_between(c.0, dir) <= c.1).count();
+        // A direction sampled at a cone's rim may round to just outside it.
+        inside.max(1) as f32 / self.total
     }
 }
 

@@ -240,7 +240,7 @@ impl<'a> Progressive<'a> {
                 for &i in grid.near(photon.position) {
                     let Some(vp) = &points[i as usize] else { continue };
                     if (vp.p - photon.position).length_squared() > vp.radius * vp.radius
-                        || !photon.lights_surface(vp.n)
+                        || !photon.lights_surface(vp.p, vp.n, vp.radius)
                     {
                         continue;
                     }
