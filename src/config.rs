@@ -248,11 +248,14 @@ fn in_range(name: &'static str, value: u32, min: u32, max: u32) -> Result<()> {
     }
 }
 
-/// `None`, or a finite distance greater than 0.
+/// `None`, or a finite distance greater than 0 whose square is finite too.
 fn distance(name: &'static str, value: Option<f32>) -> Result<()> {
     match value {
         Some(r) if !(r.is_finite() && r > 0.0) => {
             Err(Error::Setting { name, message: format!("must be a distance greater than 0, found {r}") })
+        }
+        Some(r) if r > 1e18 => {
+            Err(Error::Setting { name, message: format!("must be at most 1e18, found {r:e}") })
         }
         _ => Ok(()),
     }

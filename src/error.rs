@@ -68,6 +68,24 @@ pub enum Error {
         /// What is wrong with its value and what is allowed.
         message: String,
     },
+    /// A pixel came out NaN or infinite: a bug, found before it reached a file.
+    #[error(
+        "pixel ({x}, {y}) came out NaN or infinite (its {component} component), rendering with the \
+         {integrator} integrator and seed {seed}; no image was written. A light far too bright for the \
+         scene's size overflows 32-bit floats; otherwise this is a bug: please report it with the scene"
+    )]
+    NonFinite {
+        /// Column.
+        x: u32,
+        /// Row.
+        y: u32,
+        /// Which component (`--aov` name).
+        component: &'static str,
+        /// The integrator.
+        integrator: &'static str,
+        /// The seed.
+        seed: u64,
+    },
     /// An image could not be read, encoded or saved.
     #[error("{}: {message}", path.display())]
     Image {

@@ -76,8 +76,19 @@ impl Material {
         f
     }
 
-    /// Checks energy conservation; the message names the worst channel.
+    /// The sharpest glossy lobe: beyond it, `cos^e` is a mirror in all but
+    /// name and its normalisation loses precision.
+    pub const MAX_PHONG_EXPONENT: f32 = 1e6;
+
+    /// Checks energy conservation and the Phong exponent's range; the
+    /// message names the worst channel.
     pub fn check_energy(&self) -> Result<(), String> {
+        if !(self.phong_exponent > 0.0 && self.phong_exponent <= Self::MAX_PHONG_EXPONENT) {
+            return Err(format!(
+                "phong_exponent is {}; it must be above 0 and at most 1e6 (sharper is a mirror: use `mirror`)",
+                self.phong_exponent
+            ));
+        }
         let total = self.total_reflectance();
         let (channel, worst) = ["red", "green", "blue"]
             .into_iter()

@@ -283,3 +283,61 @@ fn a_pencil_beam_is_not_spread_into_fireflies() {
     assert!(mean(&photon) < 1.5 * mean(&sppm), "photon mapping must not spread the spot");
     assert!(brightest(&photon) < brightest(&sppm), "no fireflies");
 }
+
+/// Values a scene cannot render are refused with the reason; whatever slips
+/// through to an infinite pixel is an error naming the pixel, never an image
+/// of infinities with exit 0.
+#[test]
+fn values_beyond_the_floats_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let info = |name: &str, text: &str, says: &str| {
+        refused(&["info".as_ref(), write(dir.path(), name, text).as_os_str()], says);
+    };
+    info(
+        "power.toml",
+        &QUAD_SCENE.replace("power = 100", "power = 1.1e38"),
+        "power.toml:15:9: expected at most 1e30",
+    );
+    info(
+        "phong.toml",
+        &QUAD_SCENE.replace("diffuse = 0.8", "diffuse = 0.5\nspecular = 0.3\nphong_exponent = 1e8"),
+        "phong_exponent is 100000000; it must be above 0 and at most 1e6",
+    );
+    let far = QUAD_SCENE.replace("u = [5, 0, 0]", "u = [1e30, 0, 0]");
+    info("far.toml", &far, "reaches more than 1e17 from the camera");
+    let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
+    let out = dir.path().join("x.png");
+    refused(
+        &[
+            "render".as_ref(),
+            scene.as_os_str(),
+            "-o".as_ref(),
+            out.as_os_str(),
+            "--integrator".as_ref(),
+            "sppm".as_ref(),
+            "--sppm-radius".as_ref(),
+            "1e-30".as_ref(),
+        ],
+        "--sppm-radius is 1e-30, below a millionth of the scene's size",
+    );
+    // 1e30 W lighting a wall 1e-12 across: the irradiance overflows f32.
+    let blinding = QUAD_SCENE
+        .replace("power = 100", "power = 1e30")
+        .replace("[0, 0, 5]", "[0, 0, 5e-12]")
+        .replace("[0, 0, 4]", "[0, 0, 4e-12]")
+        .replace("[5, 0, 0]", "[5e-12, 0, 0]")
+        .replace("[0, 5, 0]", "[0, 5e-12, 0]");
+    let blinding = write(dir.path(), "blinding.toml", &blinding);
+    refused(
+        &[
+            "render".as_ref(),
+            blinding.as_os_str(),
+            "-o".as_ref(),
+            out.as_os_str(),
+            "--integrator".as_ref(),
+            "whitted".as_ref(),
+        ],
+        "came out NaN or infinite (its direct component), rendering with the whitted integrator and seed 0",
+    );
+    assert!(!out.exists(), "no image is written");
+}

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use crate::accel::Intersector;
 use crate::config::{IntegratorKind, RenderConfig};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::query::{RayCount, SceneQuery};
 use crate::scene::Scene;
@@ -117,6 +117,7 @@ pub fn render(
     let integrator = create(config.integrator);
     let mut rendered = integrator.render(&Context::new(scene, accel, config), progress);
     rendered.stats.elapsed = start.elapsed();
+    check_finite(&rendered.film, config)?;
     Ok(rendered)
 }
 
@@ -124,7 +125,48 @@ pub fn render(
 /// and that a render of `scene` with it fits in the memory available.
 pub fn check(scene: &Scene, config: &RenderConfig) -> Result<()> {
     config.validate()?;
+    // A search radius the scene's floats cannot resolve gathers nothing, or
+    // divides by a disc whose area rounds to zero.
+    let b = scene.bounds();
+    let smallest = (b.max - b.min).length() * 1e-6;
+    let p = &config.photons;
+    for (name, radius) in [
+        ("global_radius", p.global_radius),
+        ("caustic_radius", p.caustic_radius),
+        ("sppm_radius", p.sppm.initial_radius),
+    ] {
+        if let Some(r) = radius.filter(|&r| r < smallest) {
+            return Err(Error::Setting {
+                name,
+                message: format!(
+                    "is {r:e}, below a millionth of the scene's size ({smallest:e}): too small for 32-bit \
+                     floats to resolve here"
+                ),
+            });
+        }
+    }
     crate::memory::Estimate::of(scene, config).check(crate::memory::available())
+}
+
+/// The first pixel of `film` holding NaN or infinity, as an error naming it,
+/// its component and how it was rendered. None should ever get there: each
+/// is a bug to report.
+fn check_finite(film: &Film, config: &RenderConfig) -> Result<()> {
+    use crate::film::Aov;
+    for (i, sample) in film.pixels.iter().enumerate() {
+        // The components before their sum, so the error names where it began.
+        let mut order = Aov::ALL.iter().skip(1).chain(&Aov::ALL[..1]);
+        let Some(&(name, _)) = order.find(|(_, aov)| !sample.get(*aov).is_finite()) else { continue };
+        let (x, y) = (i as u32 % film.width, i as u32 / film.width);
+        return Err(Error::NonFinite {
+            x,
+            y,
+            component: name,
+            integrator: config.integrator.name(),
+            seed: config.seed,
+        });
+    }
+    Ok(())
 }
 
 /// How many units of work [`render`] reports through `progress` in all.

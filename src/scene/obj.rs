@@ -96,7 +96,11 @@ fn convert_material(m: &tobj::Material, file: &str, warnings: &mut Vec<String>) 
         name: format!("{file}:{}", m.name),
         diffuse: rgb(m.diffuse),
         specular: rgb(m.specular),
-        phong_exponent: m.shininess.filter(|s| s.is_finite()).unwrap_or(1.0).max(1.0),
+        phong_exponent: m
+            .shininess
+            .filter(|s| s.is_finite())
+            .unwrap_or(1.0)
+            .clamp(1.0, Material::MAX_PHONG_EXPONENT),
         ior: m.optical_density.filter(|n| n.is_finite() && *n > 0.0).unwrap_or(1.5),
         ..Material::default()
     };

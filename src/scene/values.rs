@@ -75,6 +75,16 @@ fn non_negative(x: f64) -> Option<&'static str> {
     finite(x).or((x < 0.0).then_some("expected a number that is not negative"))
 }
 
+/// The largest light power (and ambient radiance) per channel: beyond it,
+/// spreading and summing light overflows 32-bit floats.
+pub const MAX_POWER: f64 = 1e30;
+
+fn power(x: f64) -> Option<&'static str> {
+    non_negative(x).or((x > MAX_POWER).then_some(
+        "expected at most 1e30 per channel (beyond, the light's arithmetic overflows 32-bit floats)",
+    ))
+}
+
 fn positive(x: f64) -> Option<&'static str> {
     finite(x).or((x <= 0.0).then_some("expected a number greater than 0"))
 }
@@ -119,8 +129,8 @@ vector_type!(
     Reflectance, single: true, fraction
 );
 vector_type!(
-    /// A power in watts: one number or `[r, g, b]`, none negative.
-    Power, single: true, non_negative
+    /// A power in watts: one number or `[r, g, b]`, none negative, at most [`MAX_POWER`].
+    Power, single: true, power
 );
 vector_type!(
     /// A scale: one number (uniform) or `[x, y, z]`, none zero.
