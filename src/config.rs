@@ -29,10 +29,12 @@ pub mod limits {
     pub const MAX_PASSES: u32 = 1_000_000;
     /// Most photons one radiance estimate may use.
     pub const MAX_NEIGHBOURS: u32 = 100_000;
-    /// Farthest a vertex may lie from the camera: products of two
-    /// coordinates (in triangle tests, areas, squared distances) must stay
-    /// well inside `f32`'s range of 3.4e38.
-    pub const MAX_DISTANCE: f32 = 1e17;
+    /// Farthest a vertex may lie from the camera: triangle tests multiply
+    /// three coordinates, which must stay inside `f32`'s range of 3.4e38.
+    pub const MAX_DISTANCE: f32 = 1e12;
+    /// The smallest extent a scene may have (its farthest vertex from the
+    /// camera): below it, triangle tests run out of `f32` precision.
+    pub const MIN_EXTENT: f32 = 1e-12;
 }
 
 /// Defines [`IntegratorKind`] from one list of variants and names, so a

@@ -304,7 +304,12 @@ fn values_beyond_the_floats_are_refused() {
         "phong_exponent is 100000000; it must be above 0 and at most 1e6",
     );
     let far = QUAD_SCENE.replace("u = [5, 0, 0]", "u = [1e30, 0, 0]");
-    info("far.toml", &far, "reaches more than 1e17 from the camera");
+    info("far.toml", &far, "reaches more than 1e12 from the camera");
+    let tiny = QUAD_SCENE
+        .replace("[0, 0, 5]", "[0, 0, 5e-14]")
+        .replace("[5, 0, 0]", "[5e-14, 0, 0]")
+        .replace("[0, 5, 0]", "[0, 5e-14, 0]");
+    info("tiny.toml", &tiny, "below 1e-12: too small for 32-bit floats to trace");
     let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
     let out = dir.path().join("x.png");
     refused(

@@ -19,7 +19,7 @@ use glam::{DMat4, DQuat, DVec3, EulerRot, Vec3};
 use toml::Spanned;
 
 use crate::accel::embree::TriangleView;
-use crate::config::limits::MAX_DISTANCE;
+use crate::config::limits::{MAX_DISTANCE, MIN_EXTENT};
 use crate::config::{PhotonConfig, RenderConfig, SppmConfig};
 use crate::error::{Error, Location, Result};
 use crate::light::Light;
@@ -180,13 +180,24 @@ impl Builder<'_> {
                 format!("{}: its transform makes vertices non-finite", m.name),
             ));
         }
+        let extent =
+            meshes.iter().flat_map(|m| &m.positions).fold(0.0f32, |e, p| e.max(p.abs().max_element()));
+        if extent < MIN_EXTENT {
+            return Err(Error::input(
+                self.path,
+                format!(
+                    "the whole scene lies within {extent:e} of the camera, below {MIN_EXTENT:e}: too small for \
+                     32-bit floats to trace; scale it up (and its lights' power by the square)"
+                ),
+            ));
+        }
         let far = |p: Vec3| p.abs().max_element() > MAX_DISTANCE;
         if let Some(m) = meshes.iter().find(|m| m.positions.iter().any(|&p| far(p))) {
             return Err(Error::input(
                 self.path,
                 format!(
                     "{} reaches more than {MAX_DISTANCE:e} from the camera: beyond what 32-bit floats can \
-                     trace (their squares overflow); scale the scene down",
+                     trace (triangle tests multiply three coordinates); scale the scene down",
                     m.name
                 ),
             ));

@@ -186,7 +186,24 @@ pub struct EmbreeIntersector<'a> {
     shared_triangles: usize,
     // Built with `RTC_SCENE_FLAG_COMPACT`.
     compact: bool,
+    // Power of two the ray directions are scaled by (see `direction_scale`).
+    dir_scale: f32,
     meshes: PhantomData<&'a [Vec3]>,
+}
+
+/// The power of two that ray directions are multiplied by for Embree in a
+/// scene whose largest coordinate is `extent`. Embree treats a triangle as
+/// parallel to a ray when `|(e1 x e2) . dir|` falls below about 1e-18, which
+/// every triangle of a scene 1e-8 across does with unit directions; scaling
+/// the directions by about `1 / extent^2` (and `t` back) keeps the test in
+/// range. 1 for scenes of size 1 and more, so their hits are unchanged. At
+/// most 2^59: Embree asserts that no direction component exceeds 1.8e18.
+fn direction_scale(extent: f32) -> f32 {
+    if !(extent > 0.0 && extent < 1.0) {
+        return 1.0;
+    }
+    let exponent = (-2.0 * extent.log2()).round().clamp(0.0, 59.0) as i32;
+    2f32.powi(exponent)
 }
 
 // SAFETY: the scene is committed in `build` and never modified afterwards.
@@ -219,7 +236,13 @@ impl<'a> EmbreeIntersector<'a> {
         // SAFETY: `device.raw` is a live device.
         let scene = unsafe { ffi::rtcNewScene(device.raw) };
         device.check()?;
-        let mut this = EmbreeIntersector { scene, device, shared_triangles: 0, compact, meshes: PhantomData };
+        let extent = meshes
+            .iter()
+            .flat_map(|m| m.positions().iter())
+            .fold(0.0f32, |e, p| e.max(p.abs().max_element()));
+        let dir_scale = direction_scale(extent);
+        let mut this =
+            EmbreeIntersector { scene, device, shared_triangles: 0, compact, dir_scale, meshes: PhantomData };
         let flags = ffi::RTC_SCENE_FLAG_ROBUST
             | if compact { ffi::RTC_SCENE_FLAG_COMPACT } else { ffi::RTC_SCENE_FLAG_NONE };
         // SAFETY: `scene` is live and not yet committed.
@@ -345,18 +368,20 @@ impl<'a> EmbreeIntersector<'a> {
         self.shared_triangles
     }
 
-    fn ray(ray: &Ray) -> ffi::RTCRay {
+    /// Embree's record of `ray`, its direction multiplied by `scale` (a power
+    /// of two) and its far end divided by it, so it stands for the same segment.
+    fn ray(ray: &Ray, scale: f32) -> ffi::RTCRay {
         ffi::RTCRay {
             org_x: ray.origin.x,
             org_y: ray.origin.y,
             org_z: ray.origin.z,
             // Embree accepts t >= tnear; the smallest positive tnear makes that t > 0.
             tnear: f32::MIN_POSITIVE,
-            dir_x: ray.dir.x,
-            dir_y: ray.dir.y,
-            dir_z: ray.dir.z,
+            dir_x: ray.dir.x * scale,
+            dir_y: ray.dir.y * scale,
+            dir_z: ray.dir.z * scale,
             time: 0.0,
-            tfar: ray.t_max,
+            tfar: ray.t_max / scale,
             mask: u32::MAX,
             id: 0,
             flags: 0,
@@ -372,15 +397,15 @@ impl Drop for EmbreeIntersector<'_> {
 }
 
 /// Embree's ray-and-hit record for `ray`, with the hit marked empty.
-fn new_rayhit(ray: &Ray) -> ffi::RTCRayHit {
-    ffi::RTCRayHit { ray: EmbreeIntersector::ray(ray), hit: ffi::empty_hit() }
+fn new_rayhit(ray: &Ray, scale: f32) -> ffi::RTCRayHit {
+    ffi::RTCRayHit { ray: EmbreeIntersector::ray(ray, scale), hit: ffi::empty_hit() }
 }
 
 /// Our hit from Embree's record, if it hit anything.
-fn hit_of(rayhit: &ffi::RTCRayHit) -> Option<Hit> {
+fn hit_of(rayhit: &ffi::RTCRayHit, scale: f32) -> Option<Hit> {
     let h = &rayhit.hit;
     (h.geomID != ffi::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
-        t: rayhit.ray.tfar,
+        t: rayhit.ray.tfar * scale,
         u: h.u,
         v: h.v,
         geom_id: h.geomID,
@@ -396,13 +421,13 @@ pub struct RawRays(Vec<ffi::RTCRayHit>);
 impl RawRays {
     /// Converts rays once, up front, as a C program would hold them.
     pub fn new(rays: &[Ray]) -> RawRays {
-        RawRays(rays.iter().map(new_rayhit).collect())
+        RawRays(rays.iter().map(|r| new_rayhit(r, 1.0)).collect())
     }
 
     /// Resets the hit records so the same rays can be traced again.
     pub fn reset(&mut self, rays: &[Ray]) {
         for (record, ray) in self.0.iter_mut().zip(rays) {
-            *record = new_rayhit(ray);
+            *record = new_rayhit(ray, 1.0);
         }
     }
 
@@ -439,15 +464,15 @@ unsafe impl Sync for SceneHandle {}
 
 impl Intersector for EmbreeIntersector<'_> {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mut rayhit = new_rayhit(ray);
+        let mut rayhit = new_rayhit(ray, self.dir_scale);
         // SAFETY: the scene is committed; `rayhit` is a valid record, 16-byte
         // aligned by its `repr(align(16))`.
         unsafe { ffi::intersect1(self.scene, &mut rayhit) };
-        hit_of(&rayhit)
+        hit_of(&rayhit, self.dir_scale)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        let mut r = Self::ray(ray);
+        let mut r = Self::ray(ray, self.dir_scale);
         // SAFETY: as in `intersect`; `RTCRay` is 16-byte aligned.
         unsafe { ffi::occluded1(self.scene, &mut r) };
         // Embree marks an occluded ray by setting tfar to -infinity.
@@ -459,19 +484,19 @@ impl Intersector for EmbreeIntersector<'_> {
     /// no streams.
     fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        let mut records: Vec<ffi::RTCRayHit> = rays.iter().map(new_rayhit).collect();
+        let mut records: Vec<ffi::RTCRayHit> = rays.iter().map(|r| new_rayhit(r, self.dir_scale)).collect();
         // SAFETY: the scene is committed; `records` is a live array of valid
         // records, 16-byte aligned (Vec honours the type's alignment).
         unsafe { ffi::intersect_many(self.scene, &mut records) };
         for (record, hit) in records.iter().zip(hits) {
-            *hit = hit_of(record);
+            *hit = hit_of(record, self.dir_scale);
         }
     }
 
     /// As [`Intersector::intersect_batch`], for shadow rays (`rtcOccluded1M`).
     fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one result slot per ray");
-        let mut records: Vec<ffi::RTCRay> = rays.iter().map(Self::ray).collect();
+        let mut records: Vec<ffi::RTCRay> = rays.iter().map(|r| Self::ray(r, self.dir_scale)).collect();
         // SAFETY: as in `intersect_batch`, for an array of `RTCRay`.
         unsafe { ffi::occluded_many(self.scene, &mut records) };
         for (record, o) in records.iter().zip(occluded) {
