@@ -346,3 +346,24 @@ fn values_beyond_the_floats_are_refused() {
     );
     assert!(!out.exists(), "no image is written");
 }
+
+/// Faces an OBJ file loses are reported, and a missing MTL file is named.
+#[test]
+fn obj_faces_left_out_and_missing_materials_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = "mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nusemtl m\nf 1 2 3\nf 1 2 4\nf 1 2\n";
+    write(dir.path(), "t.obj", obj);
+    let camera = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\n";
+    let own = write(dir.path(), "own.toml", &format!("{camera}[[mesh]]\nfile = \"t.obj\"\n"));
+    refused(&["info".as_ref(), own.as_os_str()], "missing.mtl: No such file");
+    let given =
+        format!("{camera}[materials.w]\ndiffuse = 0.5\n[[mesh]]\nfile = \"t.obj\"\nmaterial = \"w\"\n");
+    let run = caustix(&["info".as_ref(), write(dir.path(), "given.toml", &given).as_os_str()]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(stderr.contains("triangles have no area"), "{stderr}");
+    assert!(
+        stderr.contains("1 faces with fewer than 3 vertices were left out (the first on line 9)"),
+        "{stderr}"
+    );
+}

@@ -24,11 +24,22 @@ pub struct ObjContents {
 /// material, numbered from `first_material` (where the caller will append
 /// `materials`).
 pub fn load(path: &Path, material_override: Option<usize>, first_material: usize) -> Result<ObjContents> {
+    crate::files::check_regular(path)?;
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let mtl_file = std::cell::RefCell::new(None);
+    let mtl_error = std::cell::RefCell::new(None);
     let (models, mtl) = tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &options, |mtl_path| {
-        tobj::load_mtl(dir.join(mtl_path))
+        let file = dir.join(mtl_path);
+        *mtl_file.borrow_mut() = Some(file.clone());
+        let mtl_text = crate::files::read_text(&file, crate::files::MAX_TEXT_BYTES)
+            .and_then(|t| check_mtl(&file, &t).map(|()| t))
+            .map_err(|e| {
+                *mtl_error.borrow_mut() = Some(e.to_string());
+                tobj::LoadError::MaterialParseError
+            })?;
+        tobj::load_mtl_buf(&mut BufReader::new(mtl_text.as_bytes()))
     })
     .map_err(|e| {
         let (location, detail) = match locate_problem(&text) {
@@ -40,12 +51,18 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
 
     let file_name = path.file_name().map_or_else(|| "obj".into(), |n| n.to_string_lossy().into_owned());
     let mut warnings = Vec::new();
+    // What went wrong with the MTL file, said wherever a material is missing.
+    let mtl_problem = match (&mtl, mtl_error.borrow().as_ref(), mtl_file.borrow().as_ref()) {
+        (Err(_), Some(ours), _) => format!(" ({ours})"),
+        (Err(e), None, Some(file)) => format!(" (its MTL file `{}` could not be read: {e})", file.display()),
+        _ => String::new(),
+    };
     let materials = match (mtl, material_override) {
         (_, Some(_)) => Vec::new(),
         (Ok(list), None) => list.iter().map(|m| convert_material(m, &file_name, &mut warnings)).collect(),
-        (Err(e), None) => {
+        (Err(_), None) => {
             if models.iter().any(|m| m.mesh.material_id.is_some()) {
-                return Err(Error::input(path, format!("cannot read its MTL materials: {e}")));
+                return Err(Error::input(path, format!("cannot read its materials{mtl_problem}")));
             }
             Vec::new()
         }
@@ -74,16 +91,63 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
                 return Err(Error::input(
                     path,
                     format!(
-                        "object `{}` has no material in the file; give the [[mesh]] a `material = \"...\"`",
+                        "object `{}` has no material in the file{mtl_problem}; give the [[mesh]] a \
+                         `material = \"...\"`",
                         model.name
                     ),
                 ))
             }
         };
         let name = format!("{file_name}:{}", model.name);
-        meshes.push(Mesh::new(name, positions, indices, normals, material));
+        let faces = indices.len();
+        let mesh = Mesh::new(name, positions, indices, normals, material);
+        if mesh.indices.len() < faces {
+            warnings.push(format!(
+                "object `{}`: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",
+                model.name,
+                faces - mesh.indices.len()
+            ));
+        }
+        meshes.push(mesh);
+    }
+    let short = short_faces(&text);
+    if let Some(&first) = short.first() {
+        warnings.push(format!(
+            "{} faces with fewer than 3 vertices were left out (the first on line {first})",
+            short.len()
+        ));
     }
     Ok(ObjContents { meshes, materials, warnings })
+}
+
+/// Checks what tobj's MTL parser trusts: colour statements (`Ka`, `Kd`,
+/// `Ks`, `Ke`) with three numbers (with fewer it panics).
+fn check_mtl(path: &Path, text: &str) -> Result<()> {
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
+            if words.take(3).filter(|w| w.parse::<f32>().is_ok()).count() < 3 {
+                return Err(Error::input_at(
+                    path,
+                    Location { line: i + 1, column: 1 },
+                    format!("`{key}` needs three numbers (red, green, blue)"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Lines of `f` statements that name fewer than three vertices (tobj drops them).
+fn short_faces(text: &str) -> Vec<usize> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| {
+            let mut words = l.split_whitespace();
+            words.next() == Some("f") && words.count() < 3
+        })
+        .map(|(i, _)| i + 1)
+        .collect()
 }
 
 /// Maps an MTL material onto ours: `Kd` diffuse, `Ks`/`Ns` glossy lobe,
