@@ -189,3 +189,40 @@ fn the_same_image_at_every_decade() {
     sweep(&decades);
     sweep(&[(1.0, 1e5), (1e-3, 1e4), (1e3, 1e8)]);
 }
+
+/// Hostile but legal scenes, each rendered by every integrator on both
+/// backends: all must finish with a finite image (`render` refuses to return
+/// a NaN or infinite pixel).
+#[test]
+fn hostile_scenes_render_finite_images() {
+    let camera = "[camera]\neye = [0, 1, 3]\nlook_at = [0, 0.5, 0]\n[image]\nwidth = 16\nheight = 16\nsamples = 2\n\
+                  [photons]\nglobal = 5000\ncaustic = 5000\ngather_rays = 4\npasses = 2\npass_photons = 5000\n";
+    let scenes = [
+        // A light grazing a plane 1e4 wide, 1e-4 above it.
+        "[materials.w]\ndiffuse = 0.8\n[[area_light]]\ncenter = [0, 1e-4, 0]\nu = [1, 0, 0]\nv = [0, 0.001, 1]\npower = 50\n\
+         [[quad]]\ncenter = [0, 0, 0]\nu = [1e4, 0, 0]\nv = [0, 0, -1e4]\nmaterial = \"w\"\n",
+        // Total internal reflection chains: the camera inside a glass box, a light inside too.
+        "[materials.glass]\ntransmittance = 1\nior = 2.4\n[materials.w]\ndiffuse = 0.5\n[[point_light]]\nposition = [0.2, 0.5, 0]\npower = 10\n\
+         [[box]]\ncenter = [0, 0.5, 0]\nsize = 10\nmaterial = \"glass\"\n[[sphere]]\ncenter = [0, 0.3, 0]\nradius = 0.2\nmaterial = \"w\"\n",
+        // A hall of mirrors at the deepest recursion allowed.
+        "[render]\nmax_depth = 64\n[materials.m]\nmirror = 1\n[materials.w]\ndiffuse = 0.5\n[[point_light]]\nposition = [0, 0.5, 0]\npower = 10\n\
+         [[quad]]\ncenter = [-1, 0.5, 0]\nu = [0, 0, 4]\nv = [0, 4, 0]\nmaterial = \"m\"\n\
+         [[quad]]\ncenter = [1, 0.5, 0]\nu = [0, 4, 0]\nv = [0, 0, 4]\nmaterial = \"m\"\n\
+         [[sphere]]\ncenter = [0, 0.2, 0]\nradius = 0.2\nmaterial = \"w\"\n",
+        // A sphere of radius 1e-12 beside a normal one, and an area light whose u x v underflows in f32.
+        "[materials.w]\ndiffuse = 0.5\n[[area_light]]\ncenter = [0, 2, 0]\nu = [1, 0, 0]\nv = [0, 0, 1e-25]\npower = 10\n\
+         [[point_light]]\nposition = [0, 2, 1]\npower = 10\n[[sphere]]\ncenter = [0, 0.5, 0]\nradius = 1e-12\nmaterial = \"w\"\n\
+         [[sphere]]\ncenter = [0.5, 0.5, 0]\nradius = 0.3\nmaterial = \"w\"\n",
+    ];
+    for (i, body) in scenes.iter().enumerate() {
+        let scene = Scene::from_toml(&format!("{camera}{body}"), Path::new("hostile.toml")).unwrap();
+        for integrator in ["whitted", "path", "photon", "sppm", "normals", "depth"] {
+            for backend in [Backend::Embree, Backend::Native] {
+                let accel = caustix::accel::build(backend, &scene.triangle_views()).unwrap();
+                let config = RenderConfig { integrator: integrator.parse().unwrap(), ..scene.config.clone() };
+                let rendered = caustix::render(&scene, accel.as_ref(), &config, &|_| {});
+                assert!(rendered.is_ok(), "scene {i}, {integrator}, {backend:?}: {:?}", rendered.err());
+            }
+        }
+    }
+}
