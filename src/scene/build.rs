@@ -1,0 +1,433 @@
+//! Turning a parsed scene file into a [`Scene`]: materials, lights, shapes
+//! and mesh files, every place re-centred at the camera in `f64`, and every
+//! user mistake reported with its file, line and column.
+
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::{DMat4, DQuat, DVec3, EulerRot, Vec3};
+use toml::Spanned;
+
+use super::values::Position;
+use super::{file, obj, ply, shapes, teapot, Camera, Mesh, Overrides, Scene};
+use crate::config::limits::{MAX_DISTANCE, MIN_EXTENT};
+use crate::config::{PhotonConfig, RenderConfig, SppmConfig};
+use crate::error::{Error, Location, Result};
+use crate::light::Light;
+use crate::material::Material;
+
+/// Finds a material's index by its name in the file (an error names the known ones).
+type MaterialLookup<'a> = dyn Fn(&Spanned<String>) -> Result<usize> + 'a;
+
+/// Turns a parsed file into a [`Scene`], keeping the text for error locations.
+pub(super) struct Builder<'a> {
+    pub(super) text: &'a str,
+    pub(super) path: &'a Path,
+    pub(super) overrides: &'a Overrides,
+    /// Where the camera is, in the file's coordinates: the scene's origin.
+    pub(super) origin: DVec3,
+    pub(super) warnings: Vec<String>,
+}
+
+impl Builder<'_> {
+    fn error_at(&self, span: Range<usize>, message: impl Into<String>) -> Error {
+        Error::input_at(self.path, Location::from_offset(self.text, span.start), message)
+    }
+
+    pub(super) fn build(mut self, f: file::SceneFile) -> Result<Scene> {
+        let cam = &f.camera;
+        let camera = Camera::new(self.place(cam.eye), self.place(cam.look_at), cam.up.0, cam.fov.0)
+            .map_err(|msg| Error::input(self.path, format!("[camera]: {msg}")))?;
+        let (mut materials, material_ids) = self.materials(&f)?;
+        let lights = self.lights(&f)?;
+        let lookup = |name: &Spanned<String>| -> Result<usize> {
+            material_ids.get(name.get_ref()).copied().ok_or_else(|| {
+                let known: Vec<&str> = f.materials.keys().map(String::as_str).collect();
+                let hint = if known.is_empty() {
+                    "the file defines no materials; add a [materials.NAME] table".to_string()
+                } else {
+                    format!("defined materials: {}", known.join(", "))
+                };
+                self.error_at(name.span(), format!("unknown material `{}`; {hint}", name.get_ref()))
+            })
+        };
+        let mut meshes = self.shapes(&f, &lookup)?;
+        let mesh_warnings = self.mesh_files(&f, &lookup, &mut meshes, &mut materials)?;
+        self.warnings.extend(mesh_warnings);
+
+        let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
+        if triangles == 0 {
+            return Err(Error::input(
+                self.path,
+                "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[ring]], [[teapot]] or [[mesh]]",
+            ));
+        }
+        if let Some(m) = meshes.iter().find(|m| !m.positions.iter().all(|p| p.is_finite())) {
+            return Err(Error::input(
+                self.path,
+                format!("{}: its transform makes vertices non-finite", m.name),
+            ));
+        }
+        let extent =
+            meshes.iter().flat_map(|m| &m.positions).fold(0.0f32, |e, p| e.max(p.abs().max_element()));
+        if extent < MIN_EXTENT {
+            return Err(Error::input(
+                self.path,
+                format!(
+                    "the whole scene lies within {extent:e} of the camera, below {MIN_EXTENT:e}: too small for \
+                     32-bit floats to trace; scale it up (and its lights' power by the square)"
+                ),
+            ));
+        }
+        let far = |p: Vec3| p.abs().max_element() > MAX_DISTANCE;
+        if let Some(m) = meshes.iter().find(|m| m.positions.iter().any(|&p| far(p))) {
+            return Err(Error::input(
+                self.path,
+                format!(
+                    "{} reaches more than {MAX_DISTANCE:e} from the camera: beyond what 32-bit floats can \
+                     trace (triangle tests multiply three coordinates); scale the scene down",
+                    m.name
+                ),
+            ));
+        }
+        if lights.is_empty() {
+            self.warnings.push("the scene has no lights; lit renders will be black".into());
+        }
+        let config = self.config(&f)?;
+        Ok(Scene {
+            path: self.path.to_path_buf(),
+            origin: self.origin,
+            camera,
+            config,
+            materials,
+            lights,
+            meshes,
+            warnings: self.warnings,
+        })
+    }
+
+    /// The `[image]`, `[render]` and `[photons]` tables as a [`RenderConfig`].
+    fn config(&self, f: &file::SceneFile) -> Result<RenderConfig> {
+        let r = &f.render;
+        Ok(RenderConfig {
+            width: f.image.width,
+            height: f.image.height,
+            samples: f.image.samples,
+            integrator: r.integrator,
+            backend: r.backend,
+            bvh: r.bvh,
+            max_depth: r.max_depth,
+            light_samples: r.light_samples,
+            ambient: r.ambient.map_or(Vec3::ZERO, |a| a.0),
+            photons: self.photon_config(&f.photons)?,
+            ..RenderConfig::default()
+        })
+    }
+
+    fn photon_config(&self, p: &file::PhotonSection) -> Result<PhotonConfig> {
+        let kc = p.cone_filter.get_ref().0;
+        let cone_filter = match kc {
+            0.0 => None,
+            k if k >= 1.0 => Some(k),
+            k => {
+                return Err(self.error_at(
+                    p.cone_filter.span(),
+                    format!("cone_filter must be at least 1 (or 0 for none), found {k}"),
+                ))
+            }
+        };
+        let alpha = p.sppm_alpha.get_ref().0;
+        if !(alpha > 0.0 && alpha < 1.0) {
+            return Err(self.error_at(
+                p.sppm_alpha.span(),
+                format!("sppm_alpha must lie between 0 and 1 (exclusive), found {alpha}"),
+            ));
+        }
+        Ok(PhotonConfig {
+            global_photons: p.global,
+            caustic_photons: p.caustic,
+            global_k: p.global_k,
+            caustic_k: p.caustic_k,
+            global_radius: p.global_radius.map(|r| r.0),
+            caustic_radius: p.caustic_radius.map(|r| r.0),
+            cone_filter,
+            gather_rays: p.gather_rays,
+            max_bounces: p.max_bounces,
+            sppm: SppmConfig {
+                passes: p.passes,
+                photons_per_pass: p.pass_photons,
+                initial_radius: p.sppm_radius.map(|r| r.0),
+                alpha,
+            },
+        })
+    }
+
+    /// The materials, and their indices by name.
+    fn materials(&self, f: &file::SceneFile) -> Result<(Vec<Material>, HashMap<String, usize>)> {
+        let mut materials = Vec::with_capacity(f.materials.len());
+        let mut material_ids = HashMap::new();
+        for (name, section) in &f.materials {
+            let material = self.material(name, section)?;
+            material_ids.insert(name.clone(), materials.len());
+            materials.push(material);
+        }
+        Ok((materials, material_ids))
+    }
+
+    fn lights(&self, f: &file::SceneFile) -> Result<Vec<Light>> {
+        let mut lights = Vec::new();
+        for l in &f.point_light {
+            lights.push(Light::Point { position: self.place(l.position), power: l.power.0 });
+        }
+        for l in &f.area_light {
+            if crate::numeric::unit_cross(l.u.get_ref().0, l.v.0).is_none() {
+                return Err(self.error_at(l.u.span(), "the area light's edges u and v are zero or parallel"));
+            }
+            lights.push(Light::Area {
+                center: self.place(l.center),
+                u: l.u.get_ref().0,
+                v: l.v.0,
+                power: l.power.0,
+            });
+        }
+        for l in &f.spot_light {
+            lights.push(self.spot_light(l)?);
+        }
+        Ok(lights)
+    }
+
+    /// The built-in shapes: spheres, quads, boxes, rings and teapots.
+    fn shapes(&self, f: &file::SceneFile, lookup: &MaterialLookup) -> Result<Vec<Mesh>> {
+        let mut meshes = Vec::new();
+        // Each shape is made around the origin at unit size where it can be,
+        // and placed by one f64 matrix: exact at any size and distance.
+        let at = |center: Position| DMat4::from_translation(center.0);
+        for (i, s) in f.sphere.iter().enumerate() {
+            let mut m = shapes::sphere(
+                &format!("sphere #{}", i + 1),
+                Vec3::ZERO,
+                1.0,
+                s.subdivisions,
+                lookup(&s.material)?,
+            );
+            let size = DMat4::from_scale(DVec3::splat(s.radius.0 as f64));
+            m.place(&(transform_matrix(&s.transform) * at(s.center) * size), self.origin);
+            meshes.push(m);
+        }
+        for (i, q) in f.quad.iter().enumerate() {
+            if crate::numeric::unit_cross(q.u.get_ref().0, q.v.0).is_none() {
+                return Err(self.error_at(q.u.span(), "the quad's edges u and v are zero or parallel"));
+            }
+            let mut m = shapes::quad(
+                &format!("quad #{}", i + 1),
+                Vec3::ZERO,
+                q.u.get_ref().0,
+                q.v.0,
+                lookup(&q.material)?,
+            );
+            m.place(&(transform_matrix(&q.transform) * at(q.center)), self.origin);
+            meshes.push(m);
+        }
+        for (i, b) in f.cuboid.iter().enumerate() {
+            let half = 0.5 * b.size.0;
+            let mut m = shapes::cuboid(&format!("box #{}", i + 1), -half, half, lookup(&b.material)?);
+            m.place(&(transform_matrix(&b.transform) * at(b.center)), self.origin);
+            meshes.push(m);
+        }
+        for (i, r) in f.ring.iter().enumerate() {
+            let (inner, outer) = (r.inner_radius.0, r.outer_radius.get_ref().0);
+            if inner >= outer {
+                return Err(self.error_at(
+                    r.outer_radius.span(),
+                    format!("outer_radius ({outer}) must be larger than inner_radius ({inner})"),
+                ));
+            }
+            let name = format!("ring #{}", i + 1);
+            let mut m =
+                shapes::ring(&name, Vec3::ZERO, inner, outer, r.height.0, r.segments, lookup(&r.material)?);
+            m.place(&(transform_matrix(&r.transform) * at(r.base)), self.origin);
+            meshes.push(m);
+        }
+        for (i, t) in f.teapot.iter().enumerate() {
+            meshes.push(self.teapot(i, t, lookup(&t.material)?)?);
+        }
+        Ok(meshes)
+    }
+
+    fn teapot(&self, i: usize, t: &file::TeapotSection, material: usize) -> Result<Mesh> {
+        let patches = match &t.file {
+            None => teapot::parse_bpt(teapot::TEAPOT_BPT, Path::new("scenes/data/teapot.bpt"))?,
+            Some(file) => {
+                let bpt_path = self.relative(file);
+                let text = crate::files::read_text(&bpt_path, crate::files::MAX_TEXT_BYTES)?;
+                teapot::parse_bpt(&text, &bpt_path)?
+            }
+        };
+        let level = self.overrides.teapot_subdivisions.unwrap_or(t.subdivisions);
+        let max = crate::config::limits::MAX_TEAPOT_LEVEL;
+        if !(1..=max).contains(&level) {
+            return Err(Error::input(
+                self.path,
+                format!("teapot subdivisions must be from 1 to {max}, found {level}"),
+            ));
+        }
+        let triangles = 2 * (level as u64).pow(2) * patches.len() as u64;
+        let bytes = triangles * crate::memory::MESH_BYTES_PER_TRIANGLE;
+        if let Some(available) = crate::memory::available().filter(|&a| bytes > a as u64) {
+            return Err(Error::input(
+                self.path,
+                format!(
+                    "teapot #{}: {triangles} triangles at {level} subdivisions need about {:.1} GiB, and {:.1} GiB \
+                     of memory are available; ask for fewer subdivisions",
+                    i + 1,
+                    bytes as f64 / (1u64 << 30) as f64,
+                    available as f64 / (1u64 << 30) as f64
+                ),
+            ));
+        }
+        let (positions, indices) = teapot::tessellate(&patches, level as usize);
+        let mut m = Mesh::new(format!("teapot #{}", i + 1), positions, indices, None, material);
+        // The data is z-up; scenes are y-up: (x, y, z) -> (x, z, -y).
+        m.place(
+            &(transform_matrix(&t.transform) * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2)),
+            self.origin,
+        );
+        Ok(m)
+    }
+
+    /// The `[[mesh]]` files (OBJ with their MTL materials, or PLY), added to
+    /// `meshes` and `materials`; returns what the files warned about.
+    fn mesh_files(
+        &self,
+        f: &file::SceneFile,
+        lookup: &MaterialLookup,
+        meshes: &mut Vec<Mesh>,
+        materials: &mut Vec<Material>,
+    ) -> Result<Vec<String>> {
+        let mut obj_warnings = Vec::new();
+        for m in &f.mesh {
+            let obj_path = self.relative(m.file.get_ref());
+            let material = m.material.as_ref().map(lookup).transpose()?;
+            let contents = load_mesh_file(&obj_path, material, materials.len()).map_err(|e| match e {
+                Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self.error_at(
+                    m.file.span(),
+                    format!(
+                        "mesh file `{}` not found (paths are relative to the scene file)",
+                        obj_path.display()
+                    ),
+                ),
+                other => other,
+            })?;
+            materials.extend(contents.materials);
+            obj_warnings.extend(contents.warnings);
+            let matrix = transform_matrix(&m.transform);
+            for mut mesh in contents.meshes {
+                mesh.place(&matrix, self.origin);
+                meshes.push(mesh);
+            }
+        }
+
+        Ok(obj_warnings)
+    }
+
+    fn material(&self, name: &str, section: &Spanned<file::MaterialSection>) -> Result<Material> {
+        let s = section.get_ref();
+        let material = Material {
+            name: name.to_string(),
+            diffuse: s.diffuse.map_or(Vec3::ZERO, |c| c.0),
+            specular: s.specular.map_or(Vec3::ZERO, |c| c.0),
+            phong_exponent: s.phong_exponent.map_or(1.0, |p| p.0),
+            mirror: s.mirror.map_or(Vec3::ZERO, |c| c.0),
+            transmittance: s.transmittance.map_or(Vec3::ZERO, |c| c.0),
+            ior: s.ior.map_or(1.5, |n| n.0),
+        };
+        material
+            .check_energy()
+            .map_err(|msg| self.error_at(section.span(), format!("material `{name}`: {msg}")))?;
+        Ok(material)
+    }
+
+    fn spot_light(&self, l: &file::SpotLightSection) -> Result<Light> {
+        let direction = l.direction.get_ref().0.try_normalize().ok_or_else(|| {
+            self.error_at(l.direction.span(), "the spot light's direction is the zero vector")
+        })?;
+        let cone = l.cone_angle.get_ref().0;
+        if cone > 180.0 {
+            return Err(self.error_at(
+                l.cone_angle.span(),
+                format!("cone_angle is a half-angle of at most 180 degrees, found {cone}"),
+            ));
+        }
+        let falloff = match &l.falloff_start {
+            None => 0.8 * cone,
+            Some(f) if (0.0..=cone).contains(&f.get_ref().0) => f.get_ref().0,
+            Some(f) => {
+                return Err(self.error_at(
+                    f.span(),
+                    format!(
+                        "falloff_start must lie between 0 and cone_angle ({cone}), found {}",
+                        f.get_ref().0
+                    ),
+                ))
+            }
+        };
+        Ok(Light::Spot {
+            position: self.place(l.position),
+            direction,
+            cone_angle: cone.to_radians(),
+            falloff_start: falloff.to_radians(),
+            power: l.power.0,
+        })
+    }
+
+    /// A place in the file, relative to the camera (see [`Scene::origin`]).
+    fn place(&self, p: Position) -> Vec3 {
+        (p.0 - self.origin).as_vec3()
+    }
+
+    fn relative(&self, file: &str) -> PathBuf {
+        self.path.parent().unwrap_or(Path::new(".")).join(file)
+    }
+}
+
+/// Scale, then rotate about x, y, z (degrees), then translate, in `f64`.
+fn transform_matrix(t: &file::TransformSection) -> DMat4 {
+    let scale = t.scale.map_or(DVec3::ONE, |s| s.0.as_dvec3());
+    let [rx, ry, rz] = t.rotate.map_or(DVec3::ZERO, |r| r.0.as_dvec3()).to_array().map(f64::to_radians);
+    let rotation = DQuat::from_euler(EulerRot::ZYX, rz, ry, rx);
+    DMat4::from_scale_rotation_translation(scale, rotation, t.translate.map_or(DVec3::ZERO, |v| v.0))
+}
+
+/// Meshes from an OBJ or PLY file (by extension). PLY files have no
+/// materials, so their `[[mesh]]` must name one.
+fn load_mesh_file(path: &Path, material: Option<usize>, first_material: usize) -> Result<obj::ObjContents> {
+    crate::files::check_regular(path)?;
+    let is_ply = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+    if !is_ply {
+        return obj::load(path, material, first_material);
+    }
+    let material = material.ok_or_else(|| {
+        Error::input(path, "PLY files carry no materials; give the [[mesh]] a `material = \"...\"`")
+    })?;
+    let ply = ply::load(path)?;
+    let name = path.file_name().map_or_else(|| "ply".into(), |n| n.to_string_lossy().into_owned());
+    let mesh = Mesh::new(name, ply.positions, ply.indices, ply.normals, material);
+    Ok(obj::ObjContents { meshes: vec![mesh], materials: Vec::new(), warnings: Vec::new() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotation_order_is_x_then_y_then_z() {
+        let t = file::TransformSection {
+            rotate: Some(crate::scene::values::Point(Vec3::new(90.0, 90.0, 0.0))),
+            ..Default::default()
+        };
+        // X by 90 takes +y to +z; then Y by 90 takes +z to +x.
+        let p = transform_matrix(&t).transform_point3(DVec3::Y);
+        assert!(p.abs_diff_eq(DVec3::X, 1e-12), "{p}");
+    }
+}
