@@ -180,7 +180,7 @@ impl<'a> Progressive<'a> {
         let emitted = self.passes as u64 * sppm.photons_per_pass as u64;
         let note = format!(
             "photons: {emitted} emitted in {} passes of {}, traced and gathered in {:.2} s",
-            sppm.passes, sppm.photons_per_pass, self.photon_seconds
+            self.passes, sppm.photons_per_pass, self.photon_seconds
         );
         let config = self.ctx.config;
         let film = Film { width: config.width, height: config.height, pixels: self.components() };
