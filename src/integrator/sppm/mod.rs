@@ -19,6 +19,8 @@
 //! go to the `caustic` component, the rest to `global`. Direct light and
 //! lights seen through mirrors go to `direct`.
 
+mod grid;
+
 use std::f32::consts::PI;
 use std::time::{Duration, Instant};
 
@@ -30,10 +32,10 @@ use super::{Context, Integrator, Progress, RenderStats, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
-use crate::photon::grid::SphereGrid;
 use crate::photon::{emit, Arrival};
 use crate::query::{Interaction, RayCount};
 use crate::sampling::Rng;
+use grid::Grid;
 
 /// The progressive photon-mapping integrator.
 pub struct Sppm;
@@ -79,7 +81,7 @@ struct PixelState {
 /// Where a pixel's camera path met its first diffuse or glossy surface in
 /// this pass, and with what weight.
 #[derive(Debug, Clone, Copy)]
-struct VisiblePoint {
+pub(crate) struct VisiblePoint {
     p: Vec3,
     /// Unit shading normal on the camera's side.
     n: Vec3,
@@ -214,11 +216,7 @@ impl<'a> Progressive<'a> {
     /// photon order, so the sums do not depend on the thread count.
     fn gather_photons(&self, points: &[Option<VisiblePoint>]) -> Vec<Gathered> {
         let mut gathered = vec![Gathered::default(); points.len()];
-        // Cells as wide as the largest radius: every point is found.
-        let spheres: Vec<Option<(Vec3, f32)>> =
-            points.iter().map(|vp| vp.map(|vp| (vp.p, vp.radius))).collect();
-        let largest = spheres.iter().flatten().map(|s| s.1).fold(0.0, f32::max);
-        let grid = SphereGrid::new(&spheres, largest, 3);
+        let grid = Grid::new(points);
         if grid.is_empty() {
             return gathered;
         }
