@@ -226,3 +226,60 @@ fn hostile_scenes_render_finite_images() {
         }
     }
 }
+
+/// Every setting at its documented limit (`caustix::config::limits`) on a
+/// small scene: each render finishes with a finite image.
+#[test]
+fn settings_at_their_limits_render() {
+    use caustix::config::limits::*;
+    let text = "[camera]\neye = [0, 1, 3]\nlook_at = [0, 0.5, 0]\n[materials.w]\ndiffuse = 0.9\n[materials.g]\ntransmittance = 1\n\
+                [[area_light]]\ncenter = [0, 2, 0]\nu = [1, 0, 0]\nv = [0, 0, 1]\npower = 50\n\
+                [[box]]\ncenter = [0, 1, 0]\nsize = 4\nmaterial = \"w\"\n[[sphere]]\ncenter = [0, 0.5, 0]\nradius = 0.4\nmaterial = \"g\"\n";
+    let scene = Scene::from_toml(text, Path::new("limits.toml")).unwrap();
+    let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
+    let base = RenderConfig { width: 1, height: 1, ..scene.config.clone() };
+    let mut cases: Vec<(&str, RenderConfig)> = vec![
+        (
+            "widest image",
+            RenderConfig { width: MAX_IMAGE_SIDE, integrator: "normals".parse().unwrap(), ..base.clone() },
+        ),
+        (
+            "most samples",
+            RenderConfig { samples: MAX_SAMPLES, integrator: "path".parse().unwrap(), ..base.clone() },
+        ),
+        (
+            "deepest paths",
+            RenderConfig {
+                max_depth: MAX_DEPTH,
+                samples: 256,
+                integrator: "path".parse().unwrap(),
+                ..base.clone()
+            },
+        ),
+        (
+            "most light samples",
+            RenderConfig {
+                light_samples: MAX_SAMPLES,
+                integrator: "whitted".parse().unwrap(),
+                ..base.clone()
+            },
+        ),
+    ];
+    let mut photon = RenderConfig { integrator: "photon".parse().unwrap(), ..base.clone() };
+    photon.photons.gather_rays = MAX_SAMPLES;
+    photon.photons.global_photons = 2000;
+    photon.photons.caustic_photons = 2000;
+    photon.photons.global_k = MAX_NEIGHBOURS;
+    photon.photons.caustic_k = MAX_NEIGHBOURS;
+    photon.photons.max_bounces = MAX_DEPTH;
+    cases.push(("most gather rays and neighbours", photon));
+    let mut sppm = RenderConfig { integrator: "sppm".parse().unwrap(), ..base };
+    sppm.photons.sppm.passes = 2;
+    sppm.photons.sppm.photons_per_pass = 1000;
+    sppm.photons.sppm.initial_radius = Some(1e18);
+    cases.push(("widest radius", sppm));
+    for (name, config) in cases {
+        let rendered = caustix::render(&scene, accel.as_ref(), &config, &|_| {});
+        assert!(rendered.is_ok(), "{name}: {:?}", rendered.err());
+    }
+}
