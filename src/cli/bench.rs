@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Subcommand;
 
-use crate::{build_accel, in_range, load, named, MAX_THREADS};
+use crate::{build_accel, in_range, load, named, worker_threads, MAX_THREADS};
 use caustix::accel::BvhLayout;
 use caustix::config::{limits, IntegratorKind as Integrator, RenderConfig};
 use caustix::scene::Scene;
@@ -315,9 +315,7 @@ fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
         anyhow::bail!("--integrators: {} is not measured; choose from path, photon, sppm", error::name(*bad));
     }
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(
-            args.threads.map(|n| in_range("--threads", n, 1, MAX_THREADS)).transpose()?.unwrap_or(0) as usize
-        )
+        .num_threads(worker_threads(args.threads)?)
         .build()
         .context("starting worker threads")?;
     let accel = build_accel(&scene)?;

@@ -133,6 +133,11 @@ fn build_accel(scene: &Scene) -> anyhow::Result<Box<dyn caustix::accel::Intersec
 /// start that many).
 const MAX_THREADS: u32 = 1024;
 
+/// The worker threads `--threads` asks for (checked), or 0: all cores.
+fn worker_threads(threads: Option<u32>) -> anyhow::Result<usize> {
+    Ok(threads.map(|n| in_range("--threads", n, 1, MAX_THREADS)).transpose()?.unwrap_or(0) as usize)
+}
+
 /// Checks a command-line number of a measurement (render settings go
 /// through [`caustix::RenderConfig::validate`] instead).
 fn in_range(flag: &str, value: u32, min: u32, max: u32) -> anyhow::Result<u32> {

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::{in_range, load, named, MAX_THREADS};
+use crate::{load, named, worker_threads};
 use caustix::accel::{Backend, BvhLayout};
 use caustix::config::{IntegratorKind, RenderConfig};
 use caustix::film::Aov;
@@ -134,7 +134,6 @@ fn flag(name: &str) -> String {
     let flag = match name {
         "samples" => "spp",
         "global_photons" => "photons",
-        "photons_per_pass" | "pass_photons" => "pass-photons",
         other => other,
     };
     format!("--{}", flag.replace('_', "-"))
@@ -148,17 +147,12 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| PathBuf::from(args.scene.file_stem().unwrap_or_default()).with_extension("png"));
     caustix::Image::check_output(&output)?;
     anyhow::ensure!(args.exposure.is_finite(), "--exposure must be a finite number of stops");
-    let threads = match args.threads {
-        Some(n) => in_range("--threads", n, 1, MAX_THREADS)?,
-        None => 0, // all cores
-    };
+    let threads = worker_threads(args.threads)?;
     let scene = load(&args.scene)?;
     let settings = config(&args, &scene)?;
 
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads as usize)
-        .build()
-        .context("starting worker threads")?;
+    let pool =
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("starting worker threads")?;
     // Inside the pool, so that --threads bounds the BVH builds too.
     let accel = pool
         .install(|| {
@@ -195,7 +189,7 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         settings.width,
         settings.height,
         settings.integrator,
-        stats.samples_per_pixel,
+        caustix::integrator::samples_per_pixel(&settings),
         rays.closest,
         rays.shadow,
         (rays.closest + rays.shadow) as f64 / seconds.max(1e-9) / 1e6,

@@ -86,10 +86,6 @@ pub struct RenderStats {
     pub elapsed: Duration,
     /// Rays traced to their closest hit, and shadow rays.
     pub rays: RayCount,
-    /// Camera samples per pixel (passes for progressive photon mapping).
-    pub samples_per_pixel: u32,
-    /// Photons emitted, if the integrator traced any.
-    pub photons_emitted: u64,
     /// Lines worth telling the user (what photon maps were built or skipped).
     pub notes: Vec<String>,
 }
@@ -101,6 +97,14 @@ pub struct Rendered {
     pub film: Film,
     /// Time and work.
     pub stats: RenderStats,
+}
+
+impl Rendered {
+    /// A render's film with the rays it traced and its notes; [`render`]
+    /// times it.
+    pub fn new(film: Film, rays: RayCount, notes: Vec<String>) -> Rendered {
+        Rendered { film, stats: RenderStats { elapsed: Duration::ZERO, rays, notes } }
+    }
 }
 
 /// Renders `scene` through `accel` as `config` says, after checking
@@ -172,4 +176,10 @@ fn check_finite(film: &Film, config: &RenderConfig) -> Result<()> {
 /// How many units of work [`render`] reports through `progress` in all.
 pub fn work_units(config: &RenderConfig) -> u64 {
     create(config.integrator).work_units(config)
+}
+
+/// Camera samples per pixel that a render with `config` takes (passes for
+/// progressive photon mapping, one for the previews), for summaries.
+pub fn samples_per_pixel(config: &RenderConfig) -> u32 {
+    create(config.integrator).samples_per_pixel(config)
 }

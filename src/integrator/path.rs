@@ -16,7 +16,7 @@ use glam::Vec3;
 
 use super::direct::{direct_light, LightSampling};
 use super::pixels::{average_over_pixel, render_pixels};
-use super::{Context, Integrator, Progress, RenderStats, Rendered};
+use super::{Context, Integrator, Progress, Rendered};
 use crate::accel::Ray;
 use crate::bsdf::{russian_roulette, Bsdf};
 use crate::film::Sample;
@@ -31,14 +31,7 @@ impl Integrator for PathTracer {
         let (film, rays) = render_pixels(ctx, progress, |x, y, rng, count| {
             average_over_pixel(ctx, (x, y), rng, |ray, rng| radiance(ctx, ray, rng, count))
         });
-        let stats = RenderStats {
-            elapsed: Default::default(),
-            rays,
-            samples_per_pixel: ctx.config.samples,
-            photons_emitted: 0,
-            notes: Vec::new(),
-        };
-        Rendered { film, stats }
+        Rendered::new(film, rays, Vec::new())
     }
 }
 

@@ -37,7 +37,7 @@ impl Integrator for PhotonMapping {
             s.global_emitted, s.caustic_emitted, s.trace_seconds, s.build_seconds
         )];
         notes.extend(s.skipped.iter().map(|line| format!("photons: {line}")));
-        tracer.render(progress, s.global_emitted + s.caustic_emitted, notes)
+        tracer.render(progress, notes)
     }
 }
 

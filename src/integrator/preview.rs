@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 use super::pixels::render_pixels;
-use super::{Context, Integrator, Progress, RenderStats, Rendered};
+use super::{Context, Integrator, Progress, Rendered};
 use crate::config::RenderConfig;
 use crate::film::Sample;
 
@@ -41,13 +41,6 @@ impl Integrator for Preview {
             let normal = if n.dot(ray.dir) > 0.0 { -n } else { n };
             Sample { emission: picture, normal, depth: hit.t, ..Sample::default() }
         });
-        let stats = RenderStats {
-            elapsed: Default::default(),
-            rays,
-            samples_per_pixel: 1,
-            photons_emitted: 0,
-            notes: Vec::new(),
-        };
-        Rendered { film, stats }
+        Rendered::new(film, rays, Vec::new())
     }
 }

@@ -12,7 +12,7 @@ use glam::Vec3;
 
 use super::direct::{direct_light, LightSampling};
 use super::pixels::{average_over_pixel, render_pixels};
-use super::{Context, Integrator, Progress, RenderStats, Rendered};
+use super::{Context, Integrator, Progress, Rendered};
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
 use crate::film::Sample;
@@ -25,7 +25,7 @@ pub struct Whitted;
 impl Integrator for Whitted {
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
         let tracer = WhittedTracer { ctx, surface_light: None };
-        tracer.render(progress, 0, Vec::new())
+        tracer.render(progress, Vec::new())
     }
 }
 
@@ -53,21 +53,14 @@ pub struct WhittedTracer<'a> {
 }
 
 impl WhittedTracer<'_> {
-    /// Renders every pixel; `photons_emitted` and `notes` go to the stats.
-    pub fn render(&self, progress: &Progress, photons_emitted: u64, notes: Vec<String>) -> Rendered {
+    /// Renders every pixel; `notes` go to the stats.
+    pub fn render(&self, progress: &Progress, notes: Vec<String>) -> Rendered {
         let (film, rays) = render_pixels(self.ctx, progress, |x, y, rng, count| {
             average_over_pixel(self.ctx, (x, y), rng, |ray, rng| {
                 self.radiance(&ray, 0, Vec3::ONE, rng, count)
             })
         });
-        let stats = RenderStats {
-            elapsed: Default::default(),
-            rays,
-            samples_per_pixel: self.ctx.config.samples,
-            photons_emitted,
-            notes,
-        };
-        Rendered { film, stats }
+        Rendered::new(film, rays, notes)
     }
 
     /// Radiance arriving along `ray`, split into components (see

@@ -28,7 +28,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::direct::{direct_light, LightSampling};
-use super::{Context, Integrator, Progress, RenderStats, Rendered};
+use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
@@ -184,14 +184,9 @@ impl<'a> Progressive<'a> {
         );
         let config = self.ctx.config;
         let film = Film { width: config.width, height: config.height, pixels: self.components() };
-        let stats = RenderStats {
-            elapsed,
-            rays: self.rays,
-            samples_per_pixel: sppm.passes,
-            photons_emitted: emitted,
-            notes: vec![note],
-        };
-        Rendered { film, stats }
+        let mut rendered = Rendered::new(film, self.rays, vec![note]);
+        rendered.stats.elapsed = elapsed;
+        rendered
     }
 
     /// The image so far, one [`Sample`] per pixel, row-major.
