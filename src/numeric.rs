@@ -23,11 +23,6 @@ pub fn cross_length(a: Vec3, b: Vec3) -> f64 {
     a.as_dvec3().cross(b.as_dvec3()).length()
 }
 
-/// The length of `v`, without overflow or underflow.
-pub fn length(v: Vec3) -> f64 {
-    v.as_dvec3().length()
-}
-
 /// The angle between `a` and `b` in radians (0 when either is zero).
 pub fn angle_between(a: Vec3, b: Vec3) -> f32 {
     let (a, b): (DVec3, DVec3) = (a.as_dvec3(), b.as_dvec3());

@@ -1,7 +1,7 @@
 //! Triangle meshes: shared vertex positions, smooth per-vertex normals, and
 //! the smooth normal at a hit from Embree's barycentrics.
 
-use glam::{DMat3, DMat4, DVec3, Mat4, Vec3};
+use glam::{DMat3, DMat4, DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::accel::embree::TriangleView;
@@ -77,13 +77,6 @@ impl Mesh {
             + u * self.normals[i1 as usize]
             + v * self.normals[i2 as usize];
         numeric::unit(n).unwrap_or_else(|| self.face_normal(prim))
-    }
-
-    /// Applies an affine transform: points by `m`, normals by its inverse
-    /// transpose. A mirroring transform (negative determinant) also flips the
-    /// winding so that the counter-clockwise side stays the outside.
-    pub fn transform(&mut self, m: &Mat4) {
-        self.place(&m.as_dmat4(), DVec3::ZERO);
     }
 
     /// Places the mesh: each point `p` becomes `m p - origin`, computed in
@@ -189,6 +182,7 @@ fn position_slots(positions: &[Vec3]) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Mat4;
 
     /// A unit square split into two triangles, facing +z.
     fn square() -> Mesh {
@@ -262,17 +256,20 @@ mod tests {
         let tilt = Mat4::from_rotation_x(0.7) * Mat4::from_scale(Vec3::new(3.0, 1.0, 0.2));
         let mut sloped =
             Mesh::new("slope", vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, 1.0)], vec![[0, 1, 2]], None, 0);
-        sloped.transform(&tilt);
+        sloped.place(&tilt.as_dmat4(), DVec3::ZERO);
         let face = sloped.face_normal(0);
         assert!(sloped.normals.iter().all(|n| n.abs_diff_eq(face, 1e-5)), "{:?} vs {face}", sloped.normals);
-        m.transform(&Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0)));
+        m.place(&Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0)).as_dmat4(), DVec3::ZERO);
         assert_eq!(m.bounds().min.z, 5.0);
+        // Placed relative to an origin: the same points, moved by it.
+        m.place(&DMat4::IDENTITY, DVec3::new(0.0, 0.0, 1e7));
+        assert_eq!(m.bounds().min.z, 5.0 - 1e7);
     }
 
     #[test]
     fn mirroring_keeps_the_outside_counter_clockwise() {
         let mut m = square();
-        m.transform(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+        m.place(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)).as_dmat4(), DVec3::ZERO);
         // Normals still +z, and the winding agrees with them.
         assert!(m.face_normal(0).abs_diff_eq(Vec3::Z, 1e-6));
         assert!(m.normals[0].abs_diff_eq(Vec3::Z, 1e-6));
