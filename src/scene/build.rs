@@ -63,14 +63,27 @@ impl Builder<'_> {
                 "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[ring]], [[teapot]] or [[mesh]]",
             ));
         }
-        if let Some(m) = meshes.iter().find(|m| !m.positions.iter().all(|p| p.is_finite())) {
+        // One pass over the vertices: each mesh's farthest coordinate from the
+        // camera, infinite if a vertex is not finite.
+        let extents: Vec<f32> = meshes
+            .iter()
+            .map(|m| {
+                m.positions.iter().fold(0.0f32, |e, p| {
+                    if p.is_finite() {
+                        e.max(p.abs().max_element())
+                    } else {
+                        f32::INFINITY
+                    }
+                })
+            })
+            .collect();
+        if let Some((m, _)) = meshes.iter().zip(&extents).find(|(_, e)| e.is_infinite()) {
             return Err(Error::input(
                 self.path,
                 format!("{}: its transform makes vertices non-finite", m.name),
             ));
         }
-        let extent =
-            meshes.iter().flat_map(|m| &m.positions).fold(0.0f32, |e, p| e.max(p.abs().max_element()));
+        let extent = extents.iter().copied().fold(0.0f32, f32::max);
         if extent < MIN_EXTENT {
             return Err(Error::input(
                 self.path,
@@ -80,8 +93,7 @@ impl Builder<'_> {
                 ),
             ));
         }
-        let far = |p: Vec3| p.abs().max_element() > MAX_DISTANCE;
-        if let Some(m) = meshes.iter().find(|m| m.positions.iter().any(|&p| far(p))) {
+        if let Some((m, _)) = meshes.iter().zip(&extents).find(|(_, &e)| e > MAX_DISTANCE) {
             return Err(Error::input(
                 self.path,
                 format!(
