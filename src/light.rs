@@ -139,7 +139,7 @@ impl Light {
                 // rounding error of the point on it: a surface flush with the
                 // light (a ceiling) must not catch its photons at once.
                 let error = 32.0 * f32::EPSILON * (center.abs() + (0.5 * eu).abs() + (0.5 * ev).abs());
-                let origin = on + (normal.abs().dot(error) + f32::MIN_POSITIVE) * normal;
+                let origin = numeric::push_off(on, normal, error);
                 (Ray::new(origin, dir), power)
             }
             Light::Spot { position, direction, cone_angle, .. } => {

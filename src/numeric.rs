@@ -23,6 +23,14 @@ pub fn cross_length(a: Vec3, b: Vec3) -> f64 {
     a.as_dvec3().cross(b.as_dvec3()).length()
 }
 
+/// `p` pushed along the unit normal `n` by just more than `error`, the
+/// bound on each coordinate's floating-point error: the origin of a ray
+/// leaving a surface (or a light) at `p` towards the side `n` faces, sure
+/// not to start behind it. Scale-aware: no fixed epsilon.
+pub fn push_off(p: Vec3, n: Vec3, error: Vec3) -> Vec3 {
+    p + (n.abs().dot(error) + f32::MIN_POSITIVE) * n
+}
+
 /// The angle between `a` and `b` in radians (0 when either is zero).
 pub fn angle_between(a: Vec3, b: Vec3) -> f32 {
     let (a, b): (DVec3, DVec3) = (a.as_dvec3(), b.as_dvec3());

@@ -133,13 +133,8 @@ impl SurfacePoint {
     /// geometric normal, to the side `dir` goes, by just more than the error
     /// of `p`. Scale-aware: no fixed epsilon.
     fn offset_origin(&self, dir: Vec3) -> Vec3 {
-        let distance = self.ng.abs().dot(self.error) + f32::MIN_POSITIVE;
-        let offset = distance * self.ng;
-        if dir.dot(self.ng) >= 0.0 {
-            self.p + offset
-        } else {
-            self.p - offset
-        }
+        let side = if dir.dot(self.ng) >= 0.0 { self.ng } else { -self.ng };
+        crate::numeric::push_off(self.p, side, self.error)
     }
 
     /// A ray leaving the surface in direction `dir`.
