@@ -92,14 +92,7 @@ fn stores_per_photon(scene: &Scene, max_bounces: u32) -> f64 {
     let (mut weighted, mut area) = (0.0f64, 0.0f64);
     for mesh in &scene.meshes {
         let albedo = scene.materials[mesh.material].total_reflectance().max_element().min(1.0) as f64;
-        let a: f64 = mesh
-            .indices
-            .iter()
-            .map(|t| {
-                let [p0, p1, p2] = t.map(|i| mesh.positions[i as usize].as_dvec3());
-                0.5 * (p1 - p0).cross(p2 - p0).length()
-            })
-            .sum();
+        let a = mesh.area();
         weighted += albedo * a;
         area += a;
     }

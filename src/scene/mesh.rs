@@ -63,6 +63,21 @@ impl Mesh {
         Bounds::of(&self.positions)
     }
 
+    /// The total area of the triangles, in `f64` (exact at any scale), summed
+    /// in parallel blocks in a fixed order (the same at any thread count).
+    pub fn area(&self) -> f64 {
+        let triangle = |&[i0, i1, i2]: &[u32; 3]| {
+            let p0 = self.positions[i0 as usize];
+            0.5 * numeric::cross_length(self.positions[i1 as usize] - p0, self.positions[i2 as usize] - p0)
+        };
+        self.indices
+            .par_chunks(1 << 16)
+            .map(|block| block.iter().map(triangle).sum::<f64>())
+            .collect::<Vec<f64>>()
+            .iter()
+            .sum()
+    }
+
     /// Geometric normal of triangle `prim` (unit length, counter-clockwise side).
     pub fn face_normal(&self, prim: u32) -> Vec3 {
         face_normal(&self.positions, self.indices[prim as usize]).unwrap_or(Vec3::Z)

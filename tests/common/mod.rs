@@ -49,14 +49,7 @@ pub fn furnace(albedo: f32, tables: &str) -> caustix::scene::Scene {
 
 /// The summed area of the first mesh's triangles.
 pub fn mesh_area(scene: &caustix::scene::Scene) -> f32 {
-    let m = &scene.meshes[0];
-    m.indices
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| m.positions[i as usize]);
-            0.5 * (b - a).cross(c - a).length()
-        })
-        .sum()
+    scene.meshes[0].area() as f32
 }
 
 /// A point given in the scene file's coordinates, in the scene's own
