@@ -414,7 +414,6 @@ fn transform_matrix(t: &file::TransformSection) -> DMat4 {
 /// Meshes from an OBJ or PLY file (by extension). PLY files have no
 /// materials, so their `[[mesh]]` must name one.
 fn load_mesh_file(path: &Path, material: Option<usize>, first_material: usize) -> Result<obj::ObjContents> {
-    crate::files::check_regular(path)?;
     let is_ply = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
     if !is_ply {
         return obj::load(path, material, first_material);

@@ -116,6 +116,7 @@ pub struct PlyMesh {
 
 /// Reads the PLY file at `path`.
 pub fn load(path: &Path) -> Result<PlyMesh> {
+    crate::files::check_regular(path)?;
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     read(path, BufReader::with_capacity(1 << 20, file))
 }
