@@ -92,8 +92,7 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
         scene.vertex_count(),
         scene.meshes.len()
     );
-    let in_file = |p: glam::Vec3| (p.as_dvec3() + scene.origin).as_vec3();
-    outln!("bounds    {} to {}", in_file(b.min), in_file(b.max));
+    outln!("bounds    {} to {}", scene.in_file(b.min), scene.in_file(b.max));
     let bytes: usize = scene.meshes.iter().map(|m| m.bytes()).sum();
     outln!(
         "memory    {:.1} MiB of positions, normals and indices ({:.1} bytes per triangle)",

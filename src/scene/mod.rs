@@ -84,13 +84,19 @@ impl Scene {
         Builder { text, path, overrides, origin, warnings: Vec::new() }.build(parsed)
     }
 
+    /// A point of the scene (relative to the camera) in the scene file's
+    /// coordinates.
+    pub fn in_file(&self, p: Vec3) -> Vec3 {
+        (p.as_dvec3() + self.origin).as_vec3()
+    }
+
     /// All meshes' positions (in the file's coordinates), normals and
     /// triangles in one set (for export).
     pub fn merged_triangles(&self) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
         let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
         for m in &self.meshes {
             let offset = positions.len() as u32;
-            positions.extend(m.positions.iter().map(|p| (p.as_dvec3() + self.origin).as_vec3()));
+            positions.extend(m.positions.iter().map(|&p| self.in_file(p)));
             normals.extend_from_slice(&m.normals);
             indices.extend(m.indices.iter().map(|t| t.map(|i| i + offset)));
         }

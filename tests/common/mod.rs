@@ -60,5 +60,5 @@ pub fn in_scene(scene: &caustix::scene::Scene, file_point: glam::Vec3) -> glam::
 
 /// A point of the scene, in the scene file's coordinates.
 pub fn in_file(scene: &caustix::scene::Scene, point: glam::Vec3) -> glam::Vec3 {
-    (point.as_dvec3() + scene.origin).as_vec3()
+    scene.in_file(point)
 }
