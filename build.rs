@@ -8,6 +8,10 @@
 //! the system include and library paths. Anything missing stops the build
 //! with one sentence saying what to install, instead of a page of linker or
 //! clang errors.
+//!
+//! With the `denoise` feature it also checks for Intel Open Image Denoise
+//! (the `oidn` crate links it): `$OIDN_DIR/lib` (then the binaries get it as
+//! their run-time search path), else the system library paths.
 
 use std::env;
 use std::path::{Path, PathBuf};
@@ -81,7 +85,40 @@ fn embree4() {
     link(&lib_dir, "embree4");
 }
 
+const OIDN_HINT: &str = "install Intel's release archive of Open Image Denoise 2.x \
+(oidn-2.x.x.x86_64.linux.tar.gz) and set OIDN_DIR to the absolute path of the folder it unpacks to; \
+or, for testing, run `scripts/oidn-from-wheel.sh`, which unpacks it into target/oidn, where the build \
+looks by default; or build without `--features denoise`";
+
+/// The `denoise` feature: Open Image Denoise must be in `$OIDN_DIR/lib`
+/// (`.cargo/config.toml` sets target/oidn unless the caller set another) or
+/// in the system library folders, or the `oidn` crate's link fails with a
+/// page of linker errors.
+fn denoise() {
+    println!("cargo:rerun-if-env-changed=OIDN_DIR");
+    let root = env::var_os("OIDN_DIR").filter(|d| !d.is_empty()).map(PathBuf::from);
+    if let Some(root) = root.as_ref().filter(|r| r.is_relative()) {
+        fail(&format!(
+            "OIDN_DIR must be an absolute path (the oidn crate reads it from its own folder), found `{}`",
+            root.display()
+        ));
+    }
+    let own = root.as_ref().map_or(vec![], |r| vec![r.join("lib"), r.join("lib64")]);
+    if let Some(lib_dir) = find_dir(&own, "libOpenImageDenoise.so") {
+        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib_dir.display());
+    } else if find_dir(&system_lib_dirs(), "libOpenImageDenoise.so").is_none() {
+        fail(&format!(
+            "the denoise feature needs Intel Open Image Denoise 2.x (libOpenImageDenoise.so was not found \
+             in {:?}); {OIDN_HINT}",
+            [own, system_lib_dirs()].concat()
+        ));
+    }
+}
+
 fn main() {
+    if env::var_os("CARGO_FEATURE_DENOISE").is_some() {
+        denoise();
+    }
     println!("cargo:rerun-if-changed=vendor-headers/embree3_wrapper.h");
     println!("cargo:rerun-if-env-changed=EMBREE_DIR");
     if env::var_os("CARGO_FEATURE_EMBREE4").is_some() {

@@ -7,7 +7,9 @@
 # With Embree 3 installed (Debian 12) `test` runs the suite twice: on it, and on
 # Embree 4 unpacked from PyPI (scripts/embree4-from-wheel.sh), the testing route
 # for the `embree4` feature. With Embree 4 installed (Debian 13, Ubuntu 24.04)
-# everything builds with `--features embree4` against it.
+# everything builds with `--features embree4` against it. Then once more with
+# the `denoise` feature, on Open Image Denoise unpacked from PyPI
+# (scripts/oidn-from-wheel.sh). The default build needs neither.
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -80,12 +82,19 @@ case "${1:-}" in
             python3 -m pip --version >/dev/null 2>&1 || apt_install python3-pip
             scripts/embree4-from-wheel.sh
             EMBREE_DIR=target/embree4 check --features embree4
-            # Leave target/release/caustix built for the system's Embree, as `render` expects.
-            cargo build --release
         fi
+        echo "dev.sh: testing the denoise feature with Open Image Denoise from PyPI" >&2
+        python3 -m pip --version >/dev/null 2>&1 || apt_install python3-pip
+        scripts/oidn-from-wheel.sh
+        # shellcheck disable=SC2086
+        # (.cargo/config.toml points the build at target/oidn.)
+        check $flags --features denoise
+        # Leave target/release/caustix built as `render` builds it.
+        # shellcheck disable=SC2086
+        cargo build --release $flags
         ;;
     *)
-        sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'
+        sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
         exit 2
         ;;
 esac

@@ -220,6 +220,10 @@ pub struct RenderConfig {
     pub seed: u64,
     /// Photon counts and estimates.
     pub photons: PhotonConfig,
+    /// Denoise the final image with Open Image Denoise when writing it
+    /// ([`crate::film::Film::denoised`]; the render itself is unchanged).
+    /// Needs the cargo feature `denoise`.
+    pub denoise: bool,
 }
 
 impl Default for RenderConfig {
@@ -237,6 +241,7 @@ impl Default for RenderConfig {
             min_throughput: 1e-4,
             seed: 0,
             photons: PhotonConfig::default(),
+            denoise: false,
         }
     }
 }
@@ -318,6 +323,9 @@ impl RenderConfig {
                 message: format!("must lie between 0 and 1 (exclusive), found {alpha}"),
             });
         }
+        if self.denoise && !cfg!(feature = "denoise") {
+            return Err(Error::Setting { name: "denoise", message: crate::film::denoise::NOT_BUILT.into() });
+        }
         Ok(())
     }
 }
@@ -346,6 +354,21 @@ mod tests {
             match config.validate() {
                 Err(Error::Setting { name: found, .. }) => assert_eq!(found, name),
                 other => panic!("{name}: expected a setting error, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn denoising_is_refused_only_by_a_build_without_the_feature() {
+        let result = RenderConfig { denoise: true, ..RenderConfig::default() }.validate();
+        if cfg!(feature = "denoise") {
+            assert!(result.is_ok(), "{result:?}");
+        } else {
+            match result {
+                Err(Error::Setting { name: "denoise", message }) => {
+                    assert!(message.contains("--features denoise"), "{message}")
+                }
+                other => panic!("expected the denoise setting refused, got {other:?}"),
             }
         }
     }

@@ -86,6 +86,13 @@ pub enum Error {
         /// The seed.
         seed: u64,
     },
+    /// Denoising failed: Open Image Denoise's own message, or why the
+    /// images given to it cannot be denoised.
+    #[error("denoising failed: {message}")]
+    Denoise {
+        /// What went wrong.
+        message: String,
+    },
     /// An image could not be read, encoded or saved.
     #[error("{}: {message}", path.display())]
     Image {

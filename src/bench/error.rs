@@ -10,6 +10,11 @@
 //!   uses the scene file's counts);
 //! - `sppm`: `4 * 2^i` passes of the scene file's photons per pass, read off
 //!   one progressive run (each point is timed from that run's start).
+//!
+//! Optionally ([`Plan`]) each render is also denoised with Open Image
+//! Denoise and measured again, and the error is also measured over the
+//! caustic region alone (where a reference's caustic component is a large
+//! part of its light), where denoisers are known to smear.
 
 use std::fmt::Write;
 use std::path::Path;
@@ -36,6 +41,53 @@ pub struct ErrorPoint {
     pub seconds: f64,
     /// Error against the reference.
     pub error: Difference,
+    /// Error over the caustic region alone, when one was given.
+    pub caustic_error: Option<Difference>,
+    /// The same render denoised, when asked.
+    pub denoised: Option<DenoisedPoint>,
+}
+
+/// A render of an [`ErrorPoint`] after denoising.
+#[derive(Debug, Clone)]
+pub struct DenoisedPoint {
+    /// Wall-clock seconds of the denoising alone.
+    pub seconds: f64,
+    /// Error against the reference.
+    pub error: Difference,
+    /// Error over the caustic region alone, when one was given.
+    pub caustic_error: Option<Difference>,
+}
+
+/// What to measure.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The integrators, each measured at every level.
+    pub integrators: Vec<Integrator>,
+    /// Budgets per integrator, each double the one before (see [`budget`]).
+    pub levels: u32,
+    /// Also denoise every render ([`crate::film::Film::denoised`]) and measure it.
+    pub denoise: bool,
+    /// Also measure the error over these pixels alone (see [`caustic_region`]).
+    pub caustic_region: Option<Vec<bool>>,
+}
+
+/// The pixels where caustics make at least a quarter of the light: where
+/// `caustic` (a reference's caustic component, `--aov caustic`) is at
+/// least 0.25 of `reference` (the same render's final image), by channel
+/// mean. `None` if the sizes differ.
+pub fn caustic_region(reference: &Image, caustic: &Image) -> Option<Vec<bool>> {
+    if (reference.width, reference.height) != (caustic.width, caustic.height) {
+        return None;
+    }
+    let mean = |v: glam::Vec3| v.element_sum() / 3.0;
+    Some(
+        reference
+            .pixels
+            .iter()
+            .zip(&caustic.pixels)
+            .map(|(r, c)| mean(*c) > 0.0 && mean(*c) >= 0.25 * mean(*r))
+            .collect(),
+    )
 }
 
 /// The settings `integrator` uses at budget `level` of `levels`.
@@ -71,28 +123,51 @@ fn describe(s: &RenderConfig) -> String {
     }
 }
 
-/// Renders `scene` with each of `integrators` at `levels` doubling budgets
-/// (at the reference's size), comparing each image with `reference`.
-/// `report` sees every point as soon as it is measured.
+/// Renders `scene` with each of the plan's integrators at its doubling
+/// budgets (at the reference's size), comparing each image with
+/// `reference`, and measures what else the plan asks. `report` sees every
+/// point as soon as it is measured.
 pub fn measure(
     scene: &Scene,
     accel: &dyn Intersector,
     base: &RenderConfig,
     reference: &Image,
-    integrators: &[Integrator],
-    levels: u32,
+    plan: &Plan,
     report: &mut dyn FnMut(&ErrorPoint),
 ) -> crate::Result<Vec<ErrorPoint>> {
+    let levels = plan.levels;
     let base = RenderConfig { width: reference.width, height: reference.height, ..base.clone() };
-    let compare = |rendered: &Rendered| {
-        rendered.film.beauty().difference(reference).expect("rendered at the reference's size")
+    let errors = |image: &Image| {
+        let whole = image.difference(reference).expect("rendered at the reference's size");
+        let caustic = plan.caustic_region.as_ref().and_then(|mask| image.difference_where(reference, mask));
+        (whole, caustic)
     };
     let mut points = Vec::new();
-    let mut push = |point: ErrorPoint| {
+    let mut push = |integrator, level, settings: &RenderConfig, rendered: &Rendered| -> crate::Result<()> {
+        let (error, caustic_error) = errors(&rendered.film.beauty());
+        let denoised = if plan.denoise {
+            let start = Instant::now();
+            let image = rendered.film.denoised()?;
+            let seconds = start.elapsed().as_secs_f64();
+            let (error, caustic_error) = errors(&image);
+            Some(DenoisedPoint { seconds, error, caustic_error })
+        } else {
+            None
+        };
+        let point = ErrorPoint {
+            integrator,
+            level,
+            setting: describe(settings),
+            seconds: rendered.stats.elapsed.as_secs_f64(),
+            error,
+            caustic_error,
+            denoised,
+        };
         report(&point);
         points.push(point);
+        Ok(())
     };
-    for &integrator in integrators {
+    for &integrator in &plan.integrators {
         if integrator == Integrator::Sppm {
             // One progressive run, read at each level's pass count.
             let last = budget(&base, integrator, levels - 1, levels);
@@ -104,19 +179,13 @@ pub fn measure(
                 while run.passes() < settings.photons.sppm.passes {
                     run.run_pass();
                 }
-                let rendered = run.rendered(start.elapsed());
-                let seconds = rendered.stats.elapsed.as_secs_f64();
-                let error = compare(&rendered);
-                push(ErrorPoint { integrator, level, setting: describe(&settings), seconds, error });
+                push(integrator, level, &settings, &run.rendered(start.elapsed()))?;
             }
             continue;
         }
         for level in 0..levels {
             let settings = budget(&base, integrator, level, levels);
-            let rendered = render(scene, accel, &settings, &|_| {})?;
-            let seconds = rendered.stats.elapsed.as_secs_f64();
-            let error = compare(&rendered);
-            push(ErrorPoint { integrator, level, setting: describe(&settings), seconds, error });
+            push(integrator, level, &settings, &render(scene, accel, &settings, &|_| {})?)?;
         }
     }
     Ok(points)
@@ -127,14 +196,20 @@ pub fn name(integrator: Integrator) -> String {
     integrator.name().to_string()
 }
 
-/// The points as CSV, one row each, with a header.
+/// The points as CSV, one row each, with a header. Columns of what was not
+/// measured (caustic region, denoising) are empty.
 pub fn csv(points: &[ErrorPoint]) -> String {
-    let mut out = String::from("integrator,level,setting,seconds,rmse,rel_mse,mae,mean_ratio\n");
+    let mut out = String::from(
+        "integrator,level,setting,seconds,rmse,rel_mse,mae,mean_ratio,caustic_rmse,\
+         denoise_seconds,denoised_rmse,denoised_caustic_rmse\n",
+    );
+    let rmse = |d: Option<&Difference>| d.map_or(String::new(), |d| format!("{:.6e}", d.rmse));
     for p in points {
         let e = &p.error;
+        let d = p.denoised.as_ref();
         let _ = writeln!(
             out,
-            "{},{},\"{}\",{:.4},{:.6e},{:.6e},{:.6e},{:.5}",
+            "{},{},\"{}\",{:.4},{:.6e},{:.6e},{:.6e},{:.5},{},{},{},{}",
             name(p.integrator),
             p.level,
             p.setting,
@@ -142,8 +217,37 @@ pub fn csv(points: &[ErrorPoint]) -> String {
             e.rmse,
             e.rel_mse,
             e.mae,
-            e.means.0 / e.means.1
+            e.means.0 / e.means.1,
+            rmse(p.caustic_error.as_ref()),
+            d.map_or(String::new(), |d| format!("{:.4}", d.seconds)),
+            rmse(d.map(|d| &d.error)),
+            rmse(d.and_then(|d| d.caustic_error.as_ref())),
         );
+    }
+    out
+}
+
+/// Where denoising stops paying: for each integrator measured with
+/// denoising, the first level whose denoised image is no closer to the
+/// reference than the noisy one, or `None` if denoising helped at every
+/// level; by the RMSE that `error` picks from a point and its denoised
+/// version (whole image, or caustic region: skipped where it is `None`).
+pub fn denoising_stops_helping(
+    points: &[ErrorPoint],
+    error: impl Fn(&ErrorPoint, &DenoisedPoint) -> Option<(f64, f64)>,
+) -> Vec<(Integrator, Option<u32>)> {
+    let mut out: Vec<(Integrator, Option<u32>)> = Vec::new();
+    for p in points {
+        let Some((noisy, denoised)) = p.denoised.as_ref().and_then(|d| error(p, d)) else { continue };
+        let hurts = denoised >= noisy;
+        match out.iter_mut().find(|(i, _)| *i == p.integrator) {
+            Some((_, first)) => {
+                if hurts && first.is_none() {
+                    *first = Some(p.level);
+                }
+            }
+            None => out.push((p.integrator, hurts.then_some(p.level))),
+        }
     }
     out
 }
@@ -152,12 +256,14 @@ pub fn csv(points: &[ErrorPoint]) -> String {
 /// an SVG file at `path`.
 pub fn plot(points: &[ErrorPoint], title: &str, path: &Path) -> crate::Result<()> {
     let mut series: Vec<Series> = Vec::new();
+    let mut add = |name: String, point: (f64, f64)| match series.iter_mut().find(|s| s.name == name) {
+        Some(s) => s.points.push(point),
+        None => series.push(Series { name, points: vec![point] }),
+    };
     for p in points {
-        let name = name(p.integrator);
-        let point = (p.seconds, p.error.rmse);
-        match series.iter_mut().find(|s| s.name == name) {
-            Some(s) => s.points.push(point),
-            None => series.push(Series { name, points: vec![point] }),
+        add(name(p.integrator), (p.seconds, p.error.rmse));
+        if let Some(d) = &p.denoised {
+            add(format!("{} + denoise", name(p.integrator)), (p.seconds + d.seconds, d.error.rmse));
         }
     }
     log_log(path, title, "seconds (wall clock)", "RMSE against the reference", &series)

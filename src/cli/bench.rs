@@ -140,6 +140,15 @@ pub struct ErrorArgs {
     /// Where to draw the log-log plot of error against seconds (SVG).
     #[arg(long, default_value = "error.svg")]
     plot: PathBuf,
+    /// Also denoise every render with Open Image Denoise and measure that
+    /// (needs caustix built with `--features denoise`).
+    #[arg(long)]
+    denoise: bool,
+    /// The reference's caustic component (e.g. `render --integrator path
+    /// --aov caustic` beside the reference): the error is also measured
+    /// where caustics make at least a quarter of the reference's light.
+    #[arg(long)]
+    caustic_reference: Option<PathBuf>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<u32>,
@@ -299,8 +308,38 @@ fn check_svg(flag: &str, path: &Path) -> anyhow::Result<()> {
 
 fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
     use caustix::bench::error;
+    // Refused now, not after the first render.
+    anyhow::ensure!(
+        !args.denoise || cfg!(feature = "denoise"),
+        "--denoise {}",
+        caustix::film::denoise::NOT_BUILT
+    );
     let scene = load(&args.scene)?;
     let reference = caustix::Image::load(&args.reference)?;
+    let caustic_region = match &args.caustic_reference {
+        None => None,
+        Some(path) => {
+            let caustic = caustix::Image::load(path)?;
+            let region = error::caustic_region(&reference, &caustic).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "--caustic-reference {} is {}x{} but the reference is {}x{}",
+                    path.display(),
+                    caustic.width,
+                    caustic.height,
+                    reference.width,
+                    reference.height
+                )
+            })?;
+            anyhow::ensure!(
+                region.contains(&true),
+                "--caustic-reference {}: no pixel has a caustic of a quarter of the reference's light; \
+                 is it the caustic component of the same render?",
+                path.display()
+            );
+            eprintln!("caustic region: {} pixels", region.iter().filter(|&&c| c).count());
+            Some(region)
+        }
+    };
     let levels = in_range("--levels", args.levels, 1, 16)?;
     check_svg("--plot", &args.plot)?;
     let mut integrators: Vec<Integrator> = Vec::new();
@@ -328,10 +367,21 @@ fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
         args.reference.display(),
         levels
     );
+    let plan = error::Plan { integrators, levels, denoise: args.denoise, caustic_region };
     let points = pool.install(|| {
-        error::measure(&scene, accel.as_ref(), &settings, &reference, &integrators, levels, &mut |p| {
+        error::measure(&scene, accel.as_ref(), &settings, &reference, &plan, &mut |p| {
+            let mut also = String::new();
+            if let Some(c) = &p.caustic_error {
+                also += &format!(", caustic region {:.5}", c.rmse);
+            }
+            if let Some(d) = &p.denoised {
+                also += &format!(", denoised {:.5} (+{:.2} s)", d.error.rmse, d.seconds);
+                if let Some(c) = &d.caustic_error {
+                    also += &format!(", denoised caustic region {:.5}", c.rmse);
+                }
+            }
             eprintln!(
-                "{:>6} level {}: {:>8.2} s, RMSE {:.5}, mean ratio {:.4}  ({})",
+                "{:>6} level {}: {:>8.2} s, RMSE {:.5}, mean ratio {:.4}{also}  ({})",
                 error::name(p.integrator),
                 p.level,
                 p.seconds,
@@ -341,6 +391,20 @@ fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
             )
         })
     })?;
+    let whole = error::denoising_stops_helping(&points, |p, d| Some((p.error.rmse, d.error.rmse)));
+    let caustic =
+        error::denoising_stops_helping(&points, |p, d| Some((p.caustic_error?.rmse, d.caustic_error?.rmse)));
+    for (region, stops) in [("", whole), (" in the caustic region", caustic)] {
+        for (integrator, level) in stops {
+            match level {
+                Some(level) => eprintln!(
+                    "{}: denoising helps{region} below level {level}; from there the noisy image is as close or closer",
+                    error::name(integrator)
+                ),
+                None => eprintln!("{}: denoising helped{region} at every level", error::name(integrator)),
+            }
+        }
+    }
     std::fs::write(&args.csv, error::csv(&points))
         .with_context(|| format!("writing {}", args.csv.display()))?;
     let title =

@@ -1,7 +1,7 @@
 //! The `caustix` command line: a thin layer that parses arguments, calls
 //! the library and prints. Each command's arguments and code live in their
 //! own file: `render.rs`, `bench.rs` (measurements), `tools.rs` (info,
-//! export, compare).
+//! export, compare, denoise).
 
 /// `print!` that returns the error instead of panicking, so that a reader
 /// going away (`caustix info scene.toml | head -1`) ends the program quietly.
@@ -82,6 +82,21 @@ enum Command {
         #[arg(long, default_value_t = 0.1)]
         error_scale: f32,
     },
+    /// Denoise a rendered image with Intel Open Image Denoise (needs caustix
+    /// built with `--features denoise`), guided by its albedo and normal
+    /// components (`caustix render -o out.exr --aov emission,albedo,normal`).
+    Denoise {
+        /// The image: linear radiance, .exr or .hdr.
+        image: PathBuf,
+        #[command(flatten)]
+        guides: tools::DenoiseGuides,
+        /// Where to write the denoised image (.png, .exr or .hdr).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Exposure for PNG output, in stops.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        exposure: f32,
+    },
 }
 
 fn main() -> ExitCode {
@@ -112,6 +127,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             tools::compare(&image, &reference, error_image.as_deref(), error_scale)
         }
         Command::Bench(command) => bench::run(command),
+        Command::Denoise { image, guides, output, exposure } => {
+            tools::denoise(&image, &guides, &output, exposure)
+        }
     }
 }
 

@@ -81,10 +81,16 @@ pub struct RenderArgs {
     exposure: f32,
     /// Also write these components, each beside the output as NAME-COMPONENT.EXT
     /// (comma-separated). Light: emission (lights seen, also through mirrors
-    /// and glass), direct, caustic, indirect; they sum to final. Geometry of
-    /// the first diffuse or glossy surface: albedo, normal; depth of the first hit.
+    /// and glass), direct, caustic, indirect; they sum to final (with
+    /// --denoise, final is the image before denoising). Geometry of the first
+    /// diffuse or glossy surface: albedo, normal; depth of the first hit.
     #[arg(long, value_delimiter = ',', value_parser = named::<Aov>(Aov::ALL.map(|(n, _)| n)))]
     aov: Vec<Aov>,
+    /// Denoise the image with Intel Open Image Denoise, guided by the albedo
+    /// and normal components (needs caustix built with `--features denoise`;
+    /// overrides [render] denoise).
+    #[arg(long)]
+    denoise: bool,
     /// Worker threads (default: all cores). The image is the same for any count.
     #[arg(long)]
     threads: Option<u32>,
@@ -101,6 +107,7 @@ fn config(args: &RenderArgs, scene: &caustix::Scene) -> anyhow::Result<RenderCon
     c.backend = args.backend.unwrap_or(c.backend);
     c.bvh = args.bvh.unwrap_or(c.bvh);
     c.seed = args.seed;
+    c.denoise |= args.denoise;
     set(&mut c.width, args.width);
     set(&mut c.height, args.height);
     set(&mut c.samples, args.spp);
@@ -119,6 +126,13 @@ fn config(args: &RenderArgs, scene: &caustix::Scene) -> anyhow::Result<RenderCon
     p.sppm.initial_radius = args.sppm_radius.or(p.sppm.initial_radius);
     caustix::integrator::check(scene, &c).map_err(in_flags)?;
     Ok(c)
+}
+
+/// `f`'s result and its wall-clock seconds.
+fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let start = std::time::Instant::now();
+    let value = f();
+    (value, start.elapsed().as_secs_f64())
 }
 
 /// A library error, with a setting named by the flag that sets it.
@@ -174,8 +188,21 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         .map_err(in_flags)?;
     bar.finish_and_clear();
 
-    for path in rendered.film.write(&output, &args.aov, args.exposure)? {
+    // A failed denoise still leaves the render: written as it is, then the error.
+    let (beauty, denoise_failure) = match settings.denoise.then(|| timed(|| rendered.film.denoised())) {
+        None => (rendered.film.beauty(), None),
+        Some((Ok(denoised), seconds)) => {
+            eprintln!("denoised with Open Image Denoise in {seconds:.2} s");
+            (denoised, None)
+        }
+        Some((Err(e), _)) => (rendered.film.beauty(), Some(e)),
+    };
+    beauty.save(&output, args.exposure)?;
+    for path in rendered.film.write_aovs(&output, &args.aov, args.exposure)? {
         eprintln!("wrote {}", path.display());
+    }
+    if let Some(e) = denoise_failure {
+        anyhow::bail!("{e}; {} holds the image as rendered, not denoised", output.display());
     }
     let stats = &rendered.stats;
     for note in &stats.notes {

@@ -1,6 +1,8 @@
-//! `caustix info`, `caustix export` and `caustix compare`.
+//! `caustix info`, `caustix export`, `caustix compare` and `caustix denoise`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
 
 use crate::{build_accel, load};
 use caustix::scene::Scene;
@@ -65,6 +67,56 @@ pub fn compare(image: &Path, reference: &Path, error_image: Option<&Path>, scale
         a.error_image(&b, scale).save(out, 0.0)?;
         eprintln!("wrote {}", out.display());
     }
+    Ok(())
+}
+
+/// The components `caustix denoise` takes beside the image.
+#[derive(clap::Args)]
+pub struct DenoiseGuides {
+    /// The emission component (lights seen directly), kept out of the filter
+    /// and added back, as `render --denoise` does: e.g. out-emission.exr.
+    #[arg(long)]
+    emission: Option<PathBuf>,
+    /// The albedo of the first diffuse surface (.exr or .hdr), e.g. out-albedo.exr.
+    #[arg(long)]
+    albedo: Option<PathBuf>,
+    /// The shading normal of the first diffuse surface (.exr or .hdr); needs --albedo.
+    #[arg(long)]
+    normal: Option<PathBuf>,
+}
+
+/// `caustix denoise`: filters a linear image with Open Image Denoise,
+/// guided by albedo and normal images (e.g. a render's `--aov albedo,normal`
+/// at `.exr`), and writes the result.
+pub fn denoise(image: &Path, guides: &DenoiseGuides, output: &Path, exposure: f32) -> anyhow::Result<()> {
+    use caustix::Image;
+    let DenoiseGuides { emission, albedo, normal } = guides;
+    caustix::Image::check_output(output)?;
+    anyhow::ensure!(exposure.is_finite(), "--exposure must be a finite number of stops");
+    anyhow::ensure!(
+        normal.is_none() || albedo.is_some(),
+        "--normal needs --albedo too (Open Image Denoise takes normals only with an albedo)"
+    );
+    let inputs = [Some(image), emission.as_deref(), albedo.as_deref(), normal.as_deref()];
+    for path in inputs.iter().flatten() {
+        anyhow::ensure!(
+            Image::holds_radiance(path),
+            "{}: give the linear image (.exr or .hdr); a PNG is exposed, clamped and sRGB-encoded, \
+             and its normals lose their sign",
+            path.display()
+        );
+    }
+    anyhow::ensure!(cfg!(feature = "denoise"), "caustix denoise {}", caustix::film::denoise::NOT_BUILT);
+    let load = |path: Option<&Path>| path.map(Image::load).transpose();
+    let [beauty, emission, albedo, normal] = inputs.map(load);
+    let beauty = beauty?.expect("the image is always given");
+    let (emission, albedo, normal) = (emission?, albedo?, normal?);
+    let start = std::time::Instant::now();
+    let denoised =
+        caustix::film::denoise::denoise(&beauty, emission.as_ref(), albedo.as_ref(), normal.as_ref())
+            .with_context(|| format!("denoising {}", image.display()))?;
+    denoised.save(output, exposure)?;
+    eprintln!("wrote {} (denoised in {:.2} s)", output.display(), start.elapsed().as_secs_f64());
     Ok(())
 }
 

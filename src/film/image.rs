@@ -115,12 +115,23 @@ pub struct Difference {
 impl Image {
     /// The difference of this image from `reference`; `None` if the sizes differ.
     pub fn difference(&self, reference: &Image) -> Option<Difference> {
-        if (self.width, self.height) != (reference.width, reference.height) {
+        self.difference_where(reference, &vec![true; self.pixels.len()])
+    }
+
+    /// The difference of this image from `reference` over the pixels where
+    /// `mask` is true (one flag per pixel, row-major); `None` if the sizes
+    /// differ or the mask selects no pixel.
+    pub fn difference_where(&self, reference: &Image, mask: &[bool]) -> Option<Difference> {
+        if (self.width, self.height) != (reference.width, reference.height)
+            || mask.len() != self.pixels.len()
+            || !mask.contains(&true)
+        {
             return None;
         }
-        let n = (self.pixels.len() * 3) as f64;
+        let n = (mask.iter().filter(|&&m| m).count() * 3) as f64;
         let (mut se, mut rel, mut ae, mut ma, mut mb) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for (a, b) in self.pixels.iter().zip(&reference.pixels) {
+        let selected = self.pixels.iter().zip(&reference.pixels).zip(mask).filter(|(_, &m)| m);
+        for ((a, b), _) in selected {
             for (x, y) in a.to_array().into_iter().zip(b.to_array()) {
                 let (x, y) = (x as f64, y as f64);
                 se += (x - y) * (x - y);
@@ -236,6 +247,12 @@ mod tests {
         assert_eq!(a.difference(&a).unwrap().rmse, 0.0);
         assert!(a.difference(&Image { width: 1, height: 1, pixels: vec![Vec3::ONE] }).is_none());
         assert_eq!(a.error_image(&a, 1.0).pixels, vec![Vec3::ZERO; 2]);
+        // Over the second pixel alone: every channel off by 0.5.
+        let d = a.difference_where(&b, &[false, true]).unwrap();
+        assert!((d.rmse - 0.5).abs() < 1e-9 && (d.means.1 - 0.5).abs() < 1e-9);
+        assert_eq!(a.difference_where(&b, &[true, false]).unwrap().rmse, 0.0);
+        assert!(a.difference_where(&b, &[false, false]).is_none());
+        assert!(a.difference_where(&b, &[true]).is_none());
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! components (AOVs) with one meaning whatever the integrator, and turns
 //! them into images and files.
 
+pub mod denoise;
 pub mod image;
 
 use std::ops::{AddAssign, Mul};
@@ -200,11 +201,30 @@ impl Film {
         self.image(Aov::Final)
     }
 
+    /// The final image denoised by Open Image Denoise, guided by the albedo
+    /// and normal components, the emission component kept out of the filter
+    /// (see [`denoise::denoise`]; needs the cargo feature `denoise`).
+    pub fn denoised(&self) -> Result<Image> {
+        denoise::denoise(
+            &self.beauty(),
+            Some(&self.image(Aov::Emission)),
+            Some(&self.image(Aov::Albedo)),
+            Some(&self.image(Aov::Normal)),
+        )
+    }
+
     /// Writes the final image to `output`, and each of `aovs` beside it as
     /// `NAME-COMPONENT.EXT`; returns the component files written. `exposure`
     /// applies to PNG output (see [`Image::save`]).
     pub fn write(&self, output: &Path, aovs: &[Aov], exposure: f32) -> Result<Vec<PathBuf>> {
         self.beauty().save(output, exposure)?;
+        self.write_aovs(output, aovs, exposure)
+    }
+
+    /// Writes each of `aovs` beside `output` as `NAME-COMPONENT.EXT` (the
+    /// final image itself is the caller's: noisy or denoised); returns the
+    /// files written.
+    pub fn write_aovs(&self, output: &Path, aovs: &[Aov], exposure: f32) -> Result<Vec<PathBuf>> {
         let mut written = Vec::new();
         for &aov in aovs {
             let path = aov_path(output, aov.name());

@@ -132,6 +132,7 @@ impl Builder<'_> {
             max_depth: r.max_depth,
             light_samples: r.light_samples,
             ambient: r.ambient.map_or(Vec3::ZERO, |a| a.0),
+            denoise: r.denoise,
             photons: self.photon_config(&f.photons)?,
             ..RenderConfig::default()
         })

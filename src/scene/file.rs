@@ -111,6 +111,8 @@ pub struct RenderSection {
     pub light_samples: u32,
     #[serde(default)]
     pub ambient: Option<Power>,
+    #[serde(default)]
+    pub denoise: bool,
 }
 
 impl Default for RenderSection {
@@ -122,6 +124,7 @@ impl Default for RenderSection {
             max_depth: default_max_depth(),
             light_samples: default_light_samples(),
             ambient: None,
+            denoise: false,
         }
     }
 }
