@@ -220,6 +220,10 @@ pub struct RenderConfig {
     pub seed: u64,
     /// Photon counts and estimates.
     pub photons: PhotonConfig,
+    /// Render only this part of the image (`None`: all of it). Every pixel
+    /// has its own random stream, so a region's pixels are bit-identical to
+    /// the same pixels of the whole image; the film holds the region alone.
+    pub region: Option<Region>,
     /// Denoise the final image with Open Image Denoise when writing it
     /// ([`crate::film::Film::denoised`]; the render itself is unchanged).
     /// Needs the cargo feature `denoise`.
@@ -241,6 +245,7 @@ impl Default for RenderConfig {
             min_throughput: 1e-4,
             seed: 0,
             photons: PhotonConfig::default(),
+            region: None,
             denoise: false,
         }
     }
@@ -268,10 +273,65 @@ fn distance(name: &'static str, value: Option<f32>) -> Result<()> {
     }
 }
 
-impl RenderConfig {
+/// A rectangle of pixels: columns `x0..x1`, rows `y0..y1` (row 0 at the top).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Region {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// One past the last column.
+    pub x1: u32,
+    /// One past the last row.
+    pub y1: u32,
+}
+
+impl Region {
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+
     /// The pixel count.
     pub fn pixels(&self) -> u64 {
-        self.width as u64 * self.height as u64
+        self.width() as u64 * self.height() as u64
+    }
+
+    /// The `(x, y)` of the `i`-th pixel, row-major.
+    pub fn pixel(&self, i: usize) -> (u32, u32) {
+        let w = self.width() as usize;
+        (self.x0 + (i % w) as u32, self.y0 + (i / w) as u32)
+    }
+
+    /// Tile `index` (0-based) of `count` tiles of a `width` x `height` image:
+    /// bands of whole rows, as equal as rows allow, top to bottom. Bands
+    /// keep each tile's photon gathering and memory proportional to its share.
+    pub fn tile(index: u32, count: u32, width: u32, height: u32) -> Region {
+        let row = |i: u32| (i as u64 * height as u64 / count as u64) as u32;
+        Region { x0: 0, y0: row(index), x1: width, y1: row(index + 1) }
+    }
+}
+
+impl std::fmt::Display for Region {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{},{},{},{}", self.x0, self.y0, self.x1, self.y1)
+    }
+}
+
+impl RenderConfig {
+    /// The pixel count of what is rendered (the region, or the image).
+    pub fn pixels(&self) -> u64 {
+        self.region().pixels()
+    }
+
+    /// The pixels rendered: the region, or the whole image.
+    pub fn region(&self) -> Region {
+        self.region.unwrap_or(Region { x0: 0, y0: 0, x1: self.width, y1: self.height })
     }
 
     /// Checks every setting against its limits; the error names the setting
@@ -322,6 +382,17 @@ impl RenderConfig {
                 name: "sppm_alpha",
                 message: format!("must lie between 0 and 1 (exclusive), found {alpha}"),
             });
+        }
+        if let Some(r) = self.region {
+            if !(r.x0 < r.x1 && r.y0 < r.y1 && r.x1 <= self.width && r.y1 <= self.height) {
+                return Err(Error::Setting {
+                    name: "region",
+                    message: format!(
+                        "{r} (x0,y0,x1,y1) must be a non-empty part of the {}x{} image",
+                        self.width, self.height
+                    ),
+                });
+            }
         }
         if self.denoise && !cfg!(feature = "denoise") {
             return Err(Error::Setting { name: "denoise", message: crate::film::denoise::NOT_BUILT.into() });

@@ -38,6 +38,7 @@ pub mod config;
 pub mod error;
 pub mod files;
 pub mod film;
+pub mod hash;
 pub mod integrator;
 pub mod light;
 pub mod material;

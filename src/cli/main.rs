@@ -1,7 +1,7 @@
 //! The `caustix` command line: a thin layer that parses arguments, calls
 //! the library and prints. Each command's arguments and code live in their
-//! own file: `render.rs`, `bench.rs` (measurements), `tools.rs` (info,
-//! export, compare, denoise).
+//! own file: `render.rs`, `scale_out.rs` (photons, merge), `bench.rs`
+//! (measurements), `tools.rs` (info, export, compare, denoise).
 
 /// `print!` that returns the error instead of panicking, so that a reader
 /// going away (`caustix info scene.toml | head -1`) ends the program quietly.
@@ -22,6 +22,7 @@ macro_rules! outln {
 
 mod bench;
 mod render;
+mod scale_out;
 mod tools;
 
 use std::path::{Path, PathBuf};
@@ -46,8 +47,14 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene file to an image.
+    /// Render a scene file to an image (or a tile of it).
     Render(render::RenderArgs),
+    /// Trace a scene's photon maps and save them, for `render --photon-map`
+    /// (takes the same settings as `render`).
+    Photons(scale_out::PhotonsArgs),
+    /// Assemble tiles (`render --tile I/N`) into the whole image, checking
+    /// that they come from one render and cover every pixel once.
+    Merge(scale_out::MergeArgs),
     /// Print what a scene holds: triangles, vertices, bounds, materials, lights.
     Info {
         /// The scene file.
@@ -119,6 +126,8 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render::render(args),
+        Command::Photons(args) => scale_out::photons(args),
+        Command::Merge(args) => scale_out::merge(args),
         Command::Info { scene } => tools::info(&scene),
         Command::Export { scene, output, teapot_subdivisions } => {
             tools::export(&scene, &output, teapot_subdivisions)

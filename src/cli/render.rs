@@ -8,17 +8,58 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::{load, named, worker_threads};
 use caustix::accel::{Backend, BvhLayout};
-use caustix::config::{IntegratorKind, RenderConfig};
+use caustix::config::{IntegratorKind, Region, RenderConfig};
 use caustix::film::Aov;
+use caustix::Rendered;
 
+/// `caustix render`.
 #[derive(clap::Args)]
 pub struct RenderArgs {
-    /// The scene file (TOML; see the README for the format).
-    scene: PathBuf,
+    #[command(flatten)]
+    settings: SettingArgs,
     /// Output image: .png (tone-mapped sRGB), .exr or .hdr (linear radiance).
-    /// Default: the scene's name with .png, in the current folder.
+    /// Default: the scene's name with .png (.exr for a tile), in the current folder.
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// Render only tile I of N (1 <= I <= N): bands of whole rows, written as
+    /// an .exr tile for `caustix merge`. Its pixels are bit-identical to the
+    /// same pixels of the whole render.
+    #[arg(long, value_parser = parse_tile, conflicts_with = "crop")]
+    tile: Option<(u32, u32)>,
+    /// Render only the pixels x0..x1, y0..y1 (columns, then rows; row 0 at the
+    /// top, x1 and y1 excluded). As an .exr it is a tile for `caustix merge`.
+    #[arg(long, value_parser = parse_crop)]
+    crop: Option<Region>,
+    /// Photon maps traced beforehand by `caustix photons` (same scene and
+    /// settings), used instead of tracing them.
+    #[arg(long)]
+    photon_map: Option<PathBuf>,
+    /// Exposure for PNG output, in stops: each pixel is multiplied by 2^EXPOSURE.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Also write these components, each beside the output as NAME-COMPONENT.EXT
+    /// (comma-separated). Light: emission (lights seen, also through mirrors
+    /// and glass), direct, caustic, indirect; they sum to final (with
+    /// --denoise, final is the image before denoising). Geometry of the first
+    /// diffuse or glossy surface: albedo, normal; depth of the first hit.
+    #[arg(long, value_delimiter = ',', value_parser = named::<Aov>(Aov::ALL.map(|(n, _)| n)))]
+    aov: Vec<Aov>,
+    /// Denoise the image with Intel Open Image Denoise, guided by the albedo
+    /// and normal components (needs caustix built with `--features denoise`;
+    /// overrides [render] denoise).
+    #[arg(long)]
+    denoise: bool,
+    /// Worker threads (default: all cores). The image is the same for any count.
+    #[arg(long)]
+    threads: Option<u32>,
+}
+
+/// The scene and the settings that decide its image (and photon maps):
+/// shared by `caustix render` and `caustix photons`.
+#[derive(clap::Args)]
+pub struct SettingArgs {
+    /// The scene file (TOML; see the README for the format).
+    scene: PathBuf,
     /// Integrator (overrides the scene file's [render] integrator).
     #[arg(long, value_parser = named::<IntegratorKind>(IntegratorKind::ALL.iter().map(|k| k.name())))]
     integrator: Option<IntegratorKind>,
@@ -76,38 +117,49 @@ pub struct RenderArgs {
     /// Starting radius of progressive photon mapping (overrides [photons] sppm_radius).
     #[arg(long)]
     sppm_radius: Option<f32>,
-    /// Exposure for PNG output, in stops: each pixel is multiplied by 2^EXPOSURE.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    exposure: f32,
-    /// Also write these components, each beside the output as NAME-COMPONENT.EXT
-    /// (comma-separated). Light: emission (lights seen, also through mirrors
-    /// and glass), direct, caustic, indirect; they sum to final (with
-    /// --denoise, final is the image before denoising). Geometry of the first
-    /// diffuse or glossy surface: albedo, normal; depth of the first hit.
-    #[arg(long, value_delimiter = ',', value_parser = named::<Aov>(Aov::ALL.map(|(n, _)| n)))]
-    aov: Vec<Aov>,
-    /// Denoise the image with Intel Open Image Denoise, guided by the albedo
-    /// and normal components (needs caustix built with `--features denoise`;
-    /// overrides [render] denoise).
-    #[arg(long)]
-    denoise: bool,
-    /// Worker threads (default: all cores). The image is the same for any count.
-    #[arg(long)]
-    threads: Option<u32>,
     /// Seed of every random stream: another seed, an independent image (default 0).
     #[arg(long, default_value_t = 0)]
     seed: u64,
 }
 
+/// `I/N` of `--tile`.
+fn parse_tile(text: &str) -> Result<(u32, u32), String> {
+    let wrong = || format!("`{text}`: give the tile as I/N, with 1 <= I <= N, e.g. 3/8");
+    let (i, n) = text.split_once('/').ok_or_else(wrong)?;
+    let (i, n): (u32, u32) = (i.trim().parse().map_err(|_| wrong())?, n.trim().parse().map_err(|_| wrong())?);
+    if i == 0 || i > n {
+        return Err(wrong());
+    }
+    Ok((i, n))
+}
+
+/// `x0,y0,x1,y1` of `--crop`.
+fn parse_crop(text: &str) -> Result<Region, String> {
+    let wrong = || format!("`{text}`: give the region as x0,y0,x1,y1 (x1 > x0, y1 > y0), e.g. 0,0,256,128");
+    let v: Vec<u32> =
+        text.split(',').map(|p| p.trim().parse().map_err(|_| wrong())).collect::<Result<_, _>>()?;
+    let [x0, y0, x1, y1] = v[..] else { return Err(wrong()) };
+    if x1 <= x0 || y1 <= y0 {
+        return Err(wrong());
+    }
+    Ok(Region { x0, y0, x1, y1 })
+}
+
+impl SettingArgs {
+    /// The scene file.
+    pub fn scene(&self) -> &std::path::Path {
+        &self.scene
+    }
+}
+
 /// The scene file's config with the command line's overrides, checked.
-fn config(args: &RenderArgs, scene: &caustix::Scene) -> anyhow::Result<RenderConfig> {
+pub fn config(args: &SettingArgs, scene: &caustix::Scene) -> anyhow::Result<RenderConfig> {
     let mut c = scene.config.clone();
     let set = |slot: &mut u32, value: Option<u32>| *slot = value.unwrap_or(*slot);
     c.integrator = args.integrator.unwrap_or(c.integrator);
     c.backend = args.backend.unwrap_or(c.backend);
     c.bvh = args.bvh.unwrap_or(c.bvh);
     c.seed = args.seed;
-    c.denoise |= args.denoise;
     set(&mut c.width, args.width);
     set(&mut c.height, args.height);
     set(&mut c.samples, args.spp);
@@ -136,7 +188,7 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
 }
 
 /// A library error, with a setting named by the flag that sets it.
-fn in_flags(e: caustix::Error) -> anyhow::Error {
+pub fn in_flags(e: caustix::Error) -> anyhow::Error {
     match e {
         caustix::Error::Setting { name, message } => anyhow::anyhow!("{} {message}", flag(name)),
         other => other.into(),
@@ -148,6 +200,7 @@ fn flag(name: &str) -> String {
     let flag = match name {
         "samples" => "spp",
         "global_photons" => "photons",
+        "region" => "crop",
         other => other,
     };
     format!("--{}", flag.replace('_', "-"))
@@ -155,15 +208,57 @@ fn flag(name: &str) -> String {
 
 pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     // Everything that can be refused is refused before any work.
-    let output = args
-        .output
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(args.scene.file_stem().unwrap_or_default()).with_extension("png"));
+    let scene_path = &args.settings.scene;
+    let part = args.tile.is_some() || args.crop.is_some();
+    let output = args.output.clone().unwrap_or_else(|| {
+        let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
+        match args.tile {
+            Some((i, n)) => PathBuf::from(format!("{stem}-tile-{i}-of-{n}.exr")),
+            None => PathBuf::from(stem.as_ref()).with_extension("png"),
+        }
+    });
     caustix::Image::check_output(&output)?;
+    let tile_file = part && output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    anyhow::ensure!(
+        args.tile.is_none() || tile_file,
+        "--tile writes an .exr tile for `caustix merge` (it records where the tile belongs); name the output .exr"
+    );
+    anyhow::ensure!(
+        !(part && args.denoise),
+        "--denoise works on the whole image: denoise after `caustix merge`"
+    );
     anyhow::ensure!(args.exposure.is_finite(), "--exposure must be a finite number of stops");
     let threads = worker_threads(args.threads)?;
-    let scene = load(&args.scene)?;
-    let settings = config(&args, &scene)?;
+    let scene = load(scene_path)?;
+    let mut settings = config(&args.settings, &scene)?;
+    settings.denoise |= args.denoise;
+    settings.region = match args.tile {
+        Some((i, n)) => {
+            anyhow::ensure!(
+                n <= settings.height,
+                "--tile {i}/{n}: the image has only {} rows; use at most that many tiles",
+                settings.height
+            );
+            Some(Region::tile(i - 1, n, settings.width, settings.height))
+        }
+        None => args.crop,
+    };
+    caustix::integrator::check(&scene, &settings).map_err(in_flags)?;
+    let maps = match &args.photon_map {
+        Some(path) if settings.integrator == IntegratorKind::Photon => {
+            let diagonal = caustix::integrator::Context::diagonal_of(&scene);
+            Some(caustix::photon::file::load(path, &scene, &settings, diagonal)?)
+        }
+        Some(path) => {
+            eprintln!(
+                "note: the {} integrator does not read photon maps; {} is not used",
+                settings.integrator.name(),
+                path.display()
+            );
+            None
+        }
+        None => None,
+    };
 
     let pool =
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("starting worker threads")?;
@@ -184,9 +279,21 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         .progress_chars("=> "),
     );
     let rendered = pool
-        .install(|| caustix::render(&scene, accel.as_ref(), &settings, &|n| bar.inc(n)))
+        .install(|| {
+            caustix::integrator::render_with_maps(&scene, accel.as_ref(), &settings, maps.as_ref(), &|n| {
+                bar.inc(n)
+            })
+        })
         .map_err(in_flags)?;
     bar.finish_and_clear();
+    if tile_file {
+        caustix::film::tile::save(&output, &rendered.film.beauty(), &scene, &settings)?;
+        for path in rendered.film.write_aovs(&output, &args.aov, args.exposure)? {
+            eprintln!("wrote {}", path.display());
+        }
+        summary(&output, &settings, &rendered, pool.current_num_threads(), accel.name());
+        return Ok(());
+    }
 
     // A failed denoise still leaves the render: written as it is, then the error.
     let (beauty, denoise_failure) = match settings.denoise.then(|| timed(|| rendered.film.denoised())) {
@@ -204,24 +311,34 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     if let Some(e) = denoise_failure {
         anyhow::bail!("{e}; {} holds the image as rendered, not denoised", output.display());
     }
+    summary(&output, &settings, &rendered, pool.current_num_threads(), accel.name());
+    Ok(())
+}
+
+/// The render's notes and its summary line.
+fn summary(
+    output: &std::path::Path,
+    settings: &RenderConfig,
+    rendered: &Rendered,
+    threads: usize,
+    accel: String,
+) {
     let stats = &rendered.stats;
     for note in &stats.notes {
         eprintln!("{note}");
     }
     let seconds = stats.elapsed.as_secs_f64();
     let rays = stats.rays;
+    let region = settings.region.map_or(String::new(), |r| format!(" (pixels {r})"));
     eprintln!(
-        "{}: {}x{} {:?}, {} spp in {seconds:.2} s: {} rays + {} shadow rays ({:.2} Mrays/s) on {} threads with {}",
+        "{}: {}x{}{region} {:?}, {} spp in {seconds:.2} s: {} rays + {} shadow rays ({:.2} Mrays/s) on {threads} threads with {accel}",
         output.display(),
         settings.width,
         settings.height,
         settings.integrator,
-        caustix::integrator::samples_per_pixel(&settings),
+        caustix::integrator::samples_per_pixel(settings),
         rays.closest,
         rays.shadow,
         (rays.closest + rays.shadow) as f64 / seconds.max(1e-9) / 1e6,
-        pool.current_num_threads(),
-        accel.name()
     );
-    Ok(())
 }

@@ -4,6 +4,7 @@
 
 pub mod denoise;
 pub mod image;
+pub mod tile;
 
 use std::ops::{AddAssign, Mul};
 use std::path::{Path, PathBuf};

@@ -19,6 +19,7 @@ use crate::accel::Intersector;
 use crate::config::{IntegratorKind, RenderConfig};
 use crate::error::{Error, Result};
 use crate::film::Film;
+use crate::photon::PhotonMaps;
 use crate::query::{RayCount, SceneQuery};
 use crate::scene::Scene;
 
@@ -35,13 +36,26 @@ pub struct Context<'a> {
     pub config: &'a RenderConfig,
     /// Length of the scene's bounding-box diagonal: default radii are fractions of it.
     pub diagonal: f32,
+    /// Photon maps made beforehand (loaded from a file), for the
+    /// integrators that use them; `None`: they trace their own.
+    pub photon_maps: Option<&'a PhotonMaps>,
 }
 
 impl<'a> Context<'a> {
     /// The context for rendering `scene` through `accel` with `config`.
     pub fn new(scene: &'a Scene, accel: &'a dyn Intersector, config: &'a RenderConfig) -> Self {
+        Context {
+            query: SceneQuery::new(scene, accel),
+            config,
+            diagonal: Context::diagonal_of(scene),
+            photon_maps: None,
+        }
+    }
+
+    /// The length of `scene`'s bounding-box diagonal, as contexts hold it.
+    pub fn diagonal_of(scene: &Scene) -> f32 {
         let b = scene.bounds();
-        Context { query: SceneQuery::new(scene, accel), config, diagonal: (b.max - b.min).length() }
+        (b.max - b.min).length()
     }
 
     /// The scene.
@@ -116,10 +130,24 @@ pub fn render(
     config: &RenderConfig,
     progress: &Progress,
 ) -> Result<Rendered> {
+    render_with_maps(scene, accel, config, None, progress)
+}
+
+/// [`render`] with photon maps made beforehand (see
+/// [`crate::photon::file::load`], which checks they fit the scene and
+/// settings) instead of tracing them, for the integrators that use them.
+pub fn render_with_maps(
+    scene: &Scene,
+    accel: &dyn Intersector,
+    config: &RenderConfig,
+    maps: Option<&PhotonMaps>,
+    progress: &Progress,
+) -> Result<Rendered> {
     check(scene, config)?;
     let start = Instant::now();
     let integrator = create(config.integrator);
-    let mut rendered = integrator.render(&Context::new(scene, accel, config), progress);
+    let ctx = Context { photon_maps: maps, ..Context::new(scene, accel, config) };
+    let mut rendered = integrator.render(&ctx, progress);
     rendered.stats.elapsed = start.elapsed();
     check_finite(&rendered.film, config)?;
     Ok(rendered)
@@ -161,7 +189,8 @@ fn check_finite(film: &Film, config: &RenderConfig) -> Result<()> {
         // The components before their sum, so the error names where it began.
         let mut order = Aov::ALL.iter().skip(1).chain(&Aov::ALL[..1]);
         let Some(&(name, _)) = order.find(|(_, aov)| !sample.get(*aov).is_finite()) else { continue };
-        let (x, y) = (i as u32 % film.width, i as u32 / film.width);
+        let r = config.region();
+        let (x, y) = (r.x0 + i as u32 % film.width, r.y0 + i as u32 / film.width);
         return Err(Error::NonFinite {
             x,
             y,

@@ -22,20 +22,33 @@ pub struct PhotonMapping;
 impl Integrator for PhotonMapping {
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
         let photons = &ctx.config.photons;
-        let maps = build_maps(&ctx.query, photons, ctx.config.seed, ctx.diagonal);
+        let traced;
+        let maps = match ctx.photon_maps {
+            Some(loaded) => loaded,
+            None => {
+                traced = build_maps(&ctx.query, photons, ctx.config.seed, ctx.diagonal);
+                &traced
+            }
+        };
         let light = MapLight {
             query: ctx.query,
-            maps: &maps,
+            maps,
             global_estimate: photons.global_estimate(ctx.diagonal),
             caustic_estimate: photons.caustic_estimate(ctx.diagonal),
             gather_per_sample: photons.gather_rays.div_ceil(ctx.config.samples),
         };
         let tracer = WhittedTracer { ctx, surface_light: Some(&light) };
         let s = &maps.stats;
-        let mut notes = vec![format!(
-            "photons: {} global and {} caustic emitted, traced in {:.2} s, maps built in {:.2} s",
-            s.global_emitted, s.caustic_emitted, s.trace_seconds, s.build_seconds
-        )];
+        let mut notes = vec![match ctx.photon_maps {
+            None => format!(
+                "photons: {} global and {} caustic emitted, traced in {:.2} s, maps built in {:.2} s",
+                s.global_emitted, s.caustic_emitted, s.trace_seconds, s.build_seconds
+            ),
+            Some(_) => format!(
+                "photons: {} global and {} caustic, from the saved maps",
+                s.global_emitted, s.caustic_emitted
+            ),
+        }];
         notes.extend(s.skipped.iter().map(|line| format!("photons: {line}")));
         tracer.render(progress, notes)
     }

@@ -22,18 +22,22 @@ pub fn render_pixels(
     progress: &Progress,
     pixel: impl Fn(u32, u32, &mut Rng, &mut RayCount) -> Sample + Sync,
 ) -> (Film, RayCount) {
-    let (width, height) = (ctx.config.width, ctx.config.height);
+    let width = ctx.config.width;
+    let region = ctx.config.region();
     let seed = ctx.config.seed;
-    let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
-        .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+    let tiles: Vec<(u32, u32)> = (region.y0..region.y1)
+        .step_by(TILE as usize)
+        .flat_map(|y0| (region.x0..region.x1).step_by(TILE as usize).map(move |x0| (x0, y0)))
         .collect();
     let rendered: Vec<((u32, u32), Vec<Sample>, RayCount)> = tiles
         .into_par_iter()
         .map(|(x0, y0)| {
             let mut count = RayCount::default();
             let mut pixels = Vec::with_capacity((TILE * TILE) as usize);
-            for y in y0..(y0 + TILE).min(height) {
-                for x in x0..(x0 + TILE).min(width) {
+            for y in y0..(y0 + TILE).min(region.y1) {
+                for x in x0..(x0 + TILE).min(region.x1) {
+                    // The stream of the pixel's index in the whole image,
+                    // so a region renders the same pixels as the whole.
                     let mut rng = Rng::new(seed, (y as u64) * width as u64 + x as u64);
                     pixels.push(pixel(x, y, &mut rng, &mut count));
                 }
@@ -43,13 +47,13 @@ pub fn render_pixels(
         })
         .collect();
 
-    let mut film = Film::new(width, height);
+    let mut film = Film::new(region.width(), region.height());
     let mut total = RayCount::default();
     for ((x0, y0), tile, count) in rendered {
         total += count;
-        let tile_width = (x0 + TILE).min(width) - x0;
+        let tile_width = (x0 + TILE).min(region.x1) - x0;
         for (i, c) in tile.into_iter().enumerate() {
-            film.set(x0 + i as u32 % tile_width, y0 + i as u32 / tile_width, c);
+            film.set(x0 - region.x0 + i as u32 % tile_width, y0 - region.y0 + i as u32 / tile_width, c);
         }
     }
     (film, total)

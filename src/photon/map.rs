@@ -49,11 +49,20 @@ pub struct PhotonMap {
 
 /// Irradiance estimated ahead of time at a subset of photon positions
 /// (Christensen 1999), so final gathering needs only a short nearest lookup.
-struct Precomputed {
+pub(crate) struct Precomputed {
     /// Per chosen photon: position, normal, irradiance, and the squared
     /// radius of the disc the estimate gathered over (where it holds).
     points: Vec<(Vec3, Vec3, Vec3, f32)>,
     tree: ImmutableKdTree<f32, 3>,
+}
+
+impl Precomputed {
+    /// The records and their kd-tree (at least one record).
+    pub(crate) fn new(points: Vec<(Vec3, Vec3, Vec3, f32)>) -> Precomputed {
+        let positions: Vec<[f32; 3]> = points.iter().map(|p| p.0.to_array()).collect();
+        let tree = ImmutableKdTree::new_from_slice(&positions).expect("fewer than 2^32 photons");
+        Precomputed { points, tree }
+    }
 }
 
 impl PhotonMap {
@@ -85,9 +94,18 @@ impl PhotonMap {
         if points.is_empty() {
             return;
         }
-        let positions: Vec<[f32; 3]> = points.iter().map(|p| p.0.to_array()).collect();
-        let tree = ImmutableKdTree::new_from_slice(&positions).expect("fewer than 2^32 photons");
-        self.precomputed = Some(Precomputed { points, tree });
+        self.precomputed = Some(Precomputed::new(points));
+    }
+
+    /// The precomputed irradiance records (position, normal, irradiance,
+    /// squared radius), if any: what a saved map stores.
+    pub(crate) fn precomputed_points(&self) -> Option<&[(Vec3, Vec3, Vec3, f32)]> {
+        self.precomputed.as_ref().map(|p| p.points.as_slice())
+    }
+
+    /// Sets the precomputed irradiance (of a loaded map).
+    pub(crate) fn set_precomputed(&mut self, precomputed: Precomputed) {
+        self.precomputed = Some(precomputed);
     }
 
     /// Radiance leaving `p` (normal `n`) by the diffuse part of `material`,

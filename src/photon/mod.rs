@@ -14,6 +14,7 @@
 //! from that light: physical units, no tuning constants. Each photon has its
 //! own random stream, so the maps do not depend on the thread count.
 
+pub mod file;
 pub mod map;
 
 use std::time::Instant;

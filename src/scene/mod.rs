@@ -118,6 +118,23 @@ impl Scene {
         self.meshes.iter().map(|m| m.positions.len()).sum()
     }
 
+    /// A 64-bit fingerprint of what light in the scene depends on: where it
+    /// stands (its origin), its meshes (positions, normals, triangles,
+    /// materials), materials and lights. Stable across runs and machines
+    /// ([`crate::hash`]): saved photon maps and tiles carry it.
+    pub fn fingerprint(&self) -> u64 {
+        let mut h = crate::hash::Fnv64::default();
+        h.u64(self.origin.x.to_bits()).u64(self.origin.y.to_bits()).u64(self.origin.z.to_bits());
+        h.bytes(format!("{:?}{:?}", self.materials, self.lights).as_bytes());
+        for m in &self.meshes {
+            h.u64(m.material as u64).u64(m.positions.len() as u64).vec3s(&m.positions).vec3s(&m.normals);
+            for t in &m.indices {
+                h.word(t[0]).word(t[1]).word(t[2]);
+            }
+        }
+        h.finish()
+    }
+
     /// Bounding box of all geometry.
     pub fn bounds(&self) -> Bounds {
         self.meshes.iter().fold(Bounds::EMPTY, |b, m| b.union(m.bounds()))

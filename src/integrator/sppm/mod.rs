@@ -117,9 +117,12 @@ impl<'a> Progressive<'a> {
     pub fn new(ctx: &Context<'a>) -> Self {
         let config = ctx.config;
         let radius = config.photons.sppm_radius(ctx.diagonal);
-        let pixels = (0..config.pixels())
-            .map(|i| PixelState {
-                rng: Rng::new(config.seed, i),
+        let region = config.region();
+        let pixels = (0..region.pixels() as usize)
+            .map(|i| region.pixel(i))
+            .map(|(x, y)| PixelState {
+                // The stream of the pixel's index in the whole image.
+                rng: Rng::new(config.seed, y as u64 * config.width as u64 + x as u64),
                 seen: Sample::default(),
                 tau_caustic: Vec3::ZERO,
                 tau_global: Vec3::ZERO,
@@ -138,15 +141,14 @@ impl<'a> Progressive<'a> {
     /// Runs one pass: visible points, photons, radius update.
     pub fn run_pass(&mut self) {
         let ctx = self.ctx;
-        let width = ctx.config.width as usize;
+        let region = ctx.config.region();
         let (points, counts): (Vec<Option<VisiblePoint>>, Vec<RayCount>) = self
             .pixels
             .par_iter_mut()
             .enumerate()
             .map(|(i, state)| {
                 let mut count = RayCount::default();
-                let (x, y) = ((i % width) as u32, (i / width) as u32);
-                (visible_point(&ctx, (x, y), state, &mut count), count)
+                (visible_point(&ctx, region.pixel(i), state, &mut count), count)
             })
             .unzip();
         for c in counts {
@@ -183,7 +185,8 @@ impl<'a> Progressive<'a> {
             self.passes, sppm.photons_per_pass, self.photon_seconds
         );
         let config = self.ctx.config;
-        let film = Film { width: config.width, height: config.height, pixels: self.components() };
+        let region = config.region();
+        let film = Film { width: region.width(), height: region.height(), pixels: self.components() };
         let mut rendered = Rendered::new(film, self.rays, vec![note]);
         rendered.stats.elapsed = elapsed;
         rendered

@@ -1,0 +1,338 @@
+//! Photon maps saved to a file (`.cxpm`) and loaded instead of traced: on a
+//! cluster one job traces them and every tile's job reads them.
+//!
+//! The format, all little-endian:
+//!
+//! ```text
+//! "CXPM" u32 version
+//! u64 scene fingerprint (Scene::fingerprint)
+//! the settings the maps depend on: u64 seed, u32 global photons, u32 caustic photons,
+//!   u32 max bounces, u8 for gathering, u32 global k, f32 global radius
+//! stats: u64 global emitted, u64 caustic emitted, f64 trace s, f64 build s,
+//!   u64 notes, each u32 length + UTF-8
+//! global map, caustic map: u8 present; u64 photons, each 12 f32 (position,
+//!   incoming, power, normal); u8 precomputed; u64 points, each 10 f32
+//!   (position, normal, irradiance, squared radius)
+//! u64 checksum of everything before it (hash::checksum)
+//! ```
+//!
+//! The kd-trees are rebuilt on load (serially, so they are the trees the
+//! tracing run built). A map made for another scene or other settings, a
+//! truncated or corrupted file: each is an error naming what differs.
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use super::map::{Photon, PhotonMap, Precomputed};
+use super::{PhotonMaps, PhotonStats};
+use crate::config::RenderConfig;
+use crate::error::{Error, Result};
+use crate::scene::Scene;
+
+const MAGIC: &[u8; 4] = b"CXPM";
+const VERSION: u32 = 1;
+
+/// What a scene's photon maps depend on besides the scene: two maps are
+/// interchangeable when these and the scene's fingerprint agree.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct MapSettings {
+    seed: u64,
+    global_photons: u32,
+    caustic_photons: u32,
+    max_bounces: u32,
+    for_gathering: bool,
+    global_k: u32,
+    global_radius: f32,
+}
+
+impl MapSettings {
+    fn of(config: &RenderConfig, diagonal: f32) -> MapSettings {
+        let p = &config.photons;
+        MapSettings {
+            seed: config.seed,
+            global_photons: p.global_photons,
+            caustic_photons: p.caustic_photons,
+            max_bounces: p.max_bounces,
+            for_gathering: p.gather_rays > 0,
+            global_k: p.global_k,
+            global_radius: p.global_estimate(diagonal).max_radius,
+        }
+    }
+
+    /// Each setting's name (as the command line spells it), value in the
+    /// file and value asked for, where they differ.
+    fn differences(&self, asked: &MapSettings) -> Vec<String> {
+        let mut out = Vec::new();
+        let mut differ = |name: &str, file: String, now: String| {
+            if file != now {
+                out.push(format!("{name} {file} in the file, {now} now"));
+            }
+        };
+        differ("--seed", self.seed.to_string(), asked.seed.to_string());
+        differ("--photons", self.global_photons.to_string(), asked.global_photons.to_string());
+        differ("--caustic-photons", self.caustic_photons.to_string(), asked.caustic_photons.to_string());
+        differ("max_bounces", self.max_bounces.to_string(), asked.max_bounces.to_string());
+        let gathering = |g: bool| if g { "some" } else { "none" }.to_string();
+        differ("--gather-rays", gathering(self.for_gathering), gathering(asked.for_gathering));
+        differ("--global-k", self.global_k.to_string(), asked.global_k.to_string());
+        differ("--global-radius", self.global_radius.to_string(), asked.global_radius.to_string());
+        out
+    }
+}
+
+/// Writes `maps`, traced for `scene` with `config`, to `path` (whole or not
+/// at all: see [`crate::files::write_whole`]).
+pub fn save(
+    path: &Path,
+    maps: &PhotonMaps,
+    scene: &Scene,
+    config: &RenderConfig,
+    diagonal: f32,
+) -> Result<()> {
+    let mut w = Writer(Vec::new());
+    w.0.extend_from_slice(MAGIC);
+    w.u32(VERSION);
+    w.u64(scene.fingerprint());
+    let s = MapSettings::of(config, diagonal);
+    w.u64(s.seed);
+    w.u32(s.global_photons);
+    w.u32(s.caustic_photons);
+    w.u32(s.max_bounces);
+    w.0.push(s.for_gathering as u8);
+    w.u32(s.global_k);
+    w.f32(s.global_radius);
+    let st = &maps.stats;
+    w.u64(st.global_emitted);
+    w.u64(st.caustic_emitted);
+    w.f64(st.trace_seconds);
+    w.f64(st.build_seconds);
+    w.u64(st.skipped.len() as u64);
+    for note in &st.skipped {
+        w.u32(note.len() as u32);
+        w.0.extend_from_slice(note.as_bytes());
+    }
+    for map in [&maps.global, &maps.caustic] {
+        w.map(map.as_ref());
+    }
+    let sum = crate::hash::checksum(&w.0);
+    w.u64(sum);
+    crate::files::write_whole(path, &w.0)
+}
+
+/// Reads the maps at `path`, checking that they were made for `scene` and
+/// the photon settings of `config`.
+pub fn load(path: &Path, scene: &Scene, config: &RenderConfig, diagonal: f32) -> Result<PhotonMaps> {
+    crate::files::check_regular(path)?;
+    let size = std::fs::metadata(path).map_err(|e| Error::io(path, e))?.len();
+    if let Some(available) = crate::memory::available().filter(|&a| size > a as u64) {
+        return Err(Error::input(
+            path,
+            format!("{} MiB, more than the {} MiB of memory available", size >> 20, available >> 20),
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bad = |message: String| Error::input(path, message);
+    if bytes.len() < 8 || &bytes[..4] != MAGIC {
+        return Err(bad("not a caustix photon map (it does not start with CXPM)".into()));
+    }
+    let version = u32::from_le_bytes(bytes[4..8].try_into().expect("4 bytes"));
+    if version != VERSION {
+        return Err(bad(format!(
+            "a photon map of format version {version}; this caustix reads version {VERSION}: trace the maps again \
+             with `caustix photons`"
+        )));
+    }
+    if bytes.len() < 16 {
+        return Err(bad("truncated: the file ends inside its header".into()));
+    }
+    let (body, tail) = bytes.split_at(bytes.len() - 8);
+    if crate::hash::checksum(body) != u64::from_le_bytes(tail.try_into().expect("8 bytes")) {
+        return Err(bad(
+            "its checksum does not match: the file is truncated or corrupted; trace the maps again with \
+             `caustix photons`"
+                .into(),
+        ));
+    }
+    let mut r = Reader { bytes: body, at: 8 };
+    let truncated = |_| bad("truncated or corrupted: it ends early".into());
+    let fingerprint = r.u64().map_err(truncated)?;
+    if fingerprint != scene.fingerprint() {
+        return Err(bad(format!(
+            "made for another scene (or another version of {}): its geometry, materials, lights or camera \
+             position differ; trace the maps for this scene with `caustix photons`",
+            scene.path.display()
+        )));
+    }
+    let file = (|| -> std::result::Result<MapSettings, ()> {
+        Ok(MapSettings {
+            seed: r.u64()?,
+            global_photons: r.u32()?,
+            caustic_photons: r.u32()?,
+            max_bounces: r.u32()?,
+            for_gathering: r.u8()? != 0,
+            global_k: r.u32()?,
+            global_radius: r.f32()?,
+        })
+    })()
+    .map_err(truncated)?;
+    let differences = file.differences(&MapSettings::of(config, diagonal));
+    if !differences.is_empty() {
+        return Err(bad(format!(
+            "made with other photon settings ({}); trace them again with the same settings as the render",
+            differences.join(", ")
+        )));
+    }
+    r.maps().map_err(|e| bad(e.unwrap_or_else(|| "truncated or corrupted: it ends early".into())))
+}
+
+/// Little-endian output.
+struct Writer(Vec<u8>);
+
+impl Writer {
+    fn u32(&mut self, v: u32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn u64(&mut self, v: u64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f32(&mut self, v: f32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f64(&mut self, v: f64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn vec3(&mut self, v: Vec3) {
+        for c in v.to_array() {
+            self.f32(c);
+        }
+    }
+    fn map(&mut self, map: Option<&PhotonMap>) {
+        let Some(map) = map else { return self.0.push(0) };
+        self.0.push(1);
+        self.u64(map.photons().len() as u64);
+        for p in map.photons() {
+            for v in [p.position, p.incoming, p.power, p.normal] {
+                self.vec3(v);
+            }
+        }
+        match map.precomputed_points() {
+            None => self.0.push(0),
+            Some(points) => {
+                self.0.push(1);
+                self.u64(points.len() as u64);
+                for &(position, normal, irradiance, r2) in points {
+                    for v in [position, normal, irradiance] {
+                        self.vec3(v);
+                    }
+                    self.f32(r2);
+                }
+            }
+        }
+    }
+}
+
+/// Little-endian input; `Err(())` where the bytes run out.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+/// Reading failed: `None` where the bytes ran out, else what is wrong.
+type Failure = Option<String>;
+
+impl Reader<'_> {
+    fn take<const N: usize>(&mut self) -> std::result::Result<[u8; N], ()> {
+        let end = self.at.checked_add(N).ok_or(())?;
+        let bytes = self.bytes.get(self.at..end).ok_or(())?;
+        self.at = end;
+        Ok(bytes.try_into().expect("N bytes"))
+    }
+    fn u8(&mut self) -> std::result::Result<u8, ()> {
+        Ok(self.take::<1>()?[0])
+    }
+    fn u32(&mut self) -> std::result::Result<u32, ()> {
+        self.take().map(u32::from_le_bytes)
+    }
+    fn u64(&mut self) -> std::result::Result<u64, ()> {
+        self.take().map(u64::from_le_bytes)
+    }
+    fn f32(&mut self) -> std::result::Result<f32, ()> {
+        self.take().map(f32::from_le_bytes)
+    }
+    fn f64(&mut self) -> std::result::Result<f64, ()> {
+        self.take().map(f64::from_le_bytes)
+    }
+    fn vec3(&mut self) -> std::result::Result<Vec3, ()> {
+        Ok(Vec3::new(self.f32()?, self.f32()?, self.f32()?))
+    }
+
+    /// A count of records of `size` bytes each, checked against what is left.
+    fn count(&mut self, size: usize) -> std::result::Result<usize, Failure> {
+        let n = self.u64().map_err(|()| None)?;
+        let left = (self.bytes.len() - self.at) / size;
+        if n > left as u64 {
+            return Err(Some(format!("it claims {n} records where {left} fit: corrupted")));
+        }
+        Ok(n as usize)
+    }
+
+    fn maps(&mut self) -> std::result::Result<PhotonMaps, Failure> {
+        let stats = PhotonStats {
+            global_emitted: self.u64().map_err(|()| None)?,
+            caustic_emitted: self.u64().map_err(|()| None)?,
+            trace_seconds: self.f64().map_err(|()| None)?,
+            build_seconds: self.f64().map_err(|()| None)?,
+            skipped: {
+                let n = self.count(4)?;
+                let mut notes = Vec::with_capacity(n);
+                for _ in 0..n {
+                    let len = self.u32().map_err(|()| None)? as usize;
+                    let end = self.at.checked_add(len).filter(|&e| e <= self.bytes.len()).ok_or(None)?;
+                    let text = std::str::from_utf8(&self.bytes[self.at..end])
+                        .map_err(|_| Some("a note is not UTF-8: corrupted".to_string()))?;
+                    notes.push(text.to_string());
+                    self.at = end;
+                }
+                notes
+            },
+        };
+        let global = self.map()?;
+        let caustic = self.map()?;
+        if self.at != self.bytes.len() {
+            return Err(Some(format!("{} bytes follow the maps: corrupted", self.bytes.len() - self.at)));
+        }
+        let for_gathering = global.as_ref().is_some_and(|m| m.precomputed_points().is_some());
+        Ok(PhotonMaps { global, caustic, for_gathering, stats })
+    }
+
+    fn map(&mut self) -> std::result::Result<Option<PhotonMap>, Failure> {
+        if self.u8().map_err(|()| None)? == 0 {
+            return Ok(None);
+        }
+        let n = self.count(48)?;
+        let mut photons = Vec::with_capacity(n);
+        for _ in 0..n {
+            let mut v = || self.vec3().map_err(|()| None);
+            photons.push(Photon { position: v()?, incoming: v()?, power: v()?, normal: v()? });
+        }
+        let precomputed = match self.u8().map_err(|()| None)? {
+            0 => None,
+            _ => {
+                let n = self.count(40)?;
+                let mut points = Vec::with_capacity(n);
+                for _ in 0..n {
+                    let mut v = || self.vec3().map_err(|()| None);
+                    let (p, normal, irradiance) = (v()?, v()?, v()?);
+                    points.push((p, normal, irradiance, self.f32().map_err(|()| None)?));
+                }
+                Some(points)
+            }
+        };
+        let mut map = PhotonMap::new(photons);
+        if let Some(points) = precomputed {
+            map.set_precomputed(Precomputed::new(points));
+        }
+        Ok(Some(map))
+    }
+}
