@@ -9,7 +9,8 @@
 # for the `embree4` feature. With Embree 4 installed (Debian 13, Ubuntu 24.04)
 # everything builds with `--features embree4` against it. Then once more with
 # the `denoise` feature, on Open Image Denoise unpacked from PyPI
-# (scripts/oidn-from-wheel.sh). The default build needs neither.
+# (scripts/oidn-from-wheel.sh). The default build needs neither. Last, as
+# root, scripts/slurm-test.sh renders on a one-node Slurm cluster it starts.
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -92,9 +93,12 @@ case "${1:-}" in
         # Leave target/release/caustix built as `render` builds it.
         # shellcheck disable=SC2086
         cargo build --release $flags
+        # The Slurm route end to end on a one-node cluster (as root on
+        # Debian/Ubuntu; elsewhere it says why it skips).
+        scripts/slurm-test.sh
         ;;
     *)
-        sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
+        sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'
         exit 2
         ;;
 esac

@@ -180,6 +180,19 @@ fn cli_compare_measures_differences_and_refuses_mismatched_sizes() {
     let same = caustix(&["compare".as_ref(), a.as_os_str(), b.as_os_str()]);
     let stdout = String::from_utf8_lossy(&same.stdout);
     assert!(same.status.success() && stdout.contains("rmse     0.000000"), "{stdout}");
+    assert!(stdout.contains("identical yes"), "{stdout}");
+    // One value off by one unit in the last place: not identical, though the
+    // rounded figures show no difference.
+    let mut nudged = caustix::Image::load(&a).unwrap();
+    nudged.pixels[100].y = f32::from_bits(nudged.pixels[100].y.to_bits() + 1);
+    let d = dir.path().join("d.exr");
+    nudged.save(&d, 0.0).unwrap();
+    let other = caustix(&["compare".as_ref(), a.as_os_str(), d.as_os_str()]);
+    let stdout = String::from_utf8_lossy(&other.stdout);
+    assert!(
+        stdout.contains("rmse     0.000000") && stdout.contains("identical no: 1 of 768 values differ"),
+        "{stdout}"
+    );
     let err_png = dir.path().join("err.png");
     let with_image = caustix(&[
         "compare".as_ref(),

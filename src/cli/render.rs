@@ -247,7 +247,9 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let maps = match &args.photon_map {
         Some(path) if settings.integrator == IntegratorKind::Photon => {
             let diagonal = caustix::integrator::Context::diagonal_of(&scene);
-            Some(caustix::photon::file::load(path, &scene, &settings, diagonal)?)
+            let (maps, seconds) = timed(|| caustix::photon::file::load(path, &scene, &settings, diagonal));
+            eprintln!("photon maps loaded from {} in {seconds:.2} s", path.display());
+            Some(maps?)
         }
         Some(path) => {
             eprintln!(

@@ -62,6 +62,18 @@ pub fn compare(image: &Path, reference: &Path, error_image: Option<&Path>, scale
     outln!("rel_mse  {:.6}", d.rel_mse);
     outln!("mae      {:.6}", d.mae);
     outln!("mean     {:.6} (reference {:.6}, ratio {:.4})", d.means.0, d.means.1, d.means.0 / d.means.1);
+    // Bit for bit (EXR files of the same pixels need not be the same bytes).
+    let differ = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| p.to_array().into_iter().zip(q.to_array()))
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count();
+    match differ {
+        0 => outln!("identical yes: every value bit for bit"),
+        n => outln!("identical no: {n} of {} values differ", a.pixels.len() * 3),
+    }
     if let Some(out) = error_image {
         anyhow::ensure!(scale.is_finite() && scale > 0.0, "--error-scale must be greater than 0");
         a.error_image(&b, scale).save(out, 0.0)?;
