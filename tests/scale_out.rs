@@ -90,6 +90,34 @@ fn photons_tiles_and_merge_give_the_plain_render_bit_for_bit() {
 }
 
 #[test]
+fn components_of_tiles_merge_into_the_components_of_the_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let whole = d.join("whole.exr");
+    let aov: [&OsStr; 2] = ["--aov".as_ref(), "albedo,caustic".as_ref()];
+    cornell_command("render", "path", &[aov[0], aov[1], "-o".as_ref(), whole.as_os_str()]);
+    for i in 1..=2 {
+        let (which, tile) = (format!("{i}/2"), d.join(format!("t{i}.exr")));
+        let extra: [&OsStr; 6] =
+            [aov[0], aov[1], "--tile".as_ref(), which.as_ref(), "-o".as_ref(), tile.as_os_str()];
+        cornell_command("render", "path", &extra);
+    }
+    for component in ["albedo", "caustic"] {
+        let merged = d.join(format!("merged-{component}.exr"));
+        let tiles = [1, 2].map(|i| d.join(format!("t{i}-{component}.exr")));
+        let (ok, e) = run(&[
+            "merge".as_ref(),
+            tiles[0].as_os_str(),
+            tiles[1].as_os_str(),
+            "-o".as_ref(),
+            merged.as_os_str(),
+        ]);
+        assert!(ok, "{e}");
+        assert!(pixels(&merged) == pixels(&d.join(format!("whole-{component}.exr"))), "{component}");
+    }
+}
+
+#[test]
 fn a_region_renders_the_same_pixels_as_the_whole_image() {
     let scene = Scene::load(&cornell()).unwrap();
     let accel = caustix::accel::build(caustix::accel::Backend::Embree, &scene.triangle_views()).unwrap();

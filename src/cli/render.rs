@@ -289,8 +289,12 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         .map_err(in_flags)?;
     bar.finish_and_clear();
     if tile_file {
+        // The components as tiles too, so that `merge` assembles them (for
+        // `caustix denoise` after merging, say).
         caustix::film::tile::save(&output, &rendered.film.beauty(), &scene, &settings)?;
-        for path in rendered.film.write_aovs(&output, &args.aov, args.exposure)? {
+        for &aov in &args.aov {
+            let path = caustix::film::aov_path(&output, aov.name());
+            caustix::film::tile::save(&path, &rendered.film.image(aov), &scene, &settings)?;
             eprintln!("wrote {}", path.display());
         }
         summary(&output, &settings, &rendered, pool.current_num_threads(), accel.name());
