@@ -362,3 +362,49 @@ fn trace_photon(
         ray = sp.spawn(s.wi);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Photons aimed through overlapping cones carry `intensity / pdf`: the
+    /// pdf must count every cone that holds a direction, or the overlap gets
+    /// twice the light. Then `E[1/pdf]` over the directions inside any one
+    /// cone is that cone's solid angle, overlap or not.
+    #[test]
+    fn overlapping_cones_weigh_each_direction_once() {
+        let origin = Vec3::ZERO;
+        // Two spheres whose cones overlap, and a third apart.
+        let spheres = [
+            (Vec3::new(0.0, -4.0, 0.0), 1.0),
+            (Vec3::new(0.8, -4.0, 0.0), 1.0),
+            (Vec3::new(0.0, 4.0, 0.0), 0.5),
+        ];
+        let cones = Cones::new(origin, &spheres).unwrap();
+        let mut rng = Rng::new(3, 0);
+        let n = 400_000;
+        let mut sums = [0.0f64; 3];
+        for _ in 0..n {
+            let dir = cones.sample(rng.uniform2(), rng.uniform2());
+            let weight = 1.0 / cones.pdf(dir) as f64;
+            for (sum, cone) in sums.iter_mut().zip(&cones.cones) {
+                if crate::numeric::one_minus_cos_between(cone.0, dir) <= cone.1 {
+                    *sum += weight;
+                }
+            }
+        }
+        for (sum, cone) in sums.iter().zip(&cones.cones) {
+            let estimate = sum / n as f64;
+            let ratio = estimate / cone.2 as f64;
+            assert!((ratio - 1.0).abs() < 0.01, "solid angle {} estimated as {estimate}", cone.2);
+        }
+        // The overlap is real: some directions lie in both of the first two cones.
+        let both = (0..10_000)
+            .map(|_| cones.sample(rng.uniform2(), rng.uniform2()))
+            .filter(|&d| {
+                cones.cones[..2].iter().all(|c| crate::numeric::one_minus_cos_between(c.0, d) <= c.1)
+            })
+            .count();
+        assert!(both > 1000, "{both}");
+    }
+}
