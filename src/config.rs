@@ -220,6 +220,9 @@ pub struct RenderConfig {
     pub seed: u64,
     /// Photon counts and estimates.
     pub photons: PhotonConfig,
+    /// Where camera samples get their random numbers (Whitted, photon
+    /// mapping, the path tracer; SPPM keeps one stream per pixel).
+    pub sampler: crate::sampling::SamplerKind,
     /// Render only this part of the image (`None`: all of it). Every pixel
     /// has its own random stream, so a region's pixels are bit-identical to
     /// the same pixels of the whole image; the film holds the region alone.
@@ -245,6 +248,7 @@ impl Default for RenderConfig {
             min_throughput: 1e-4,
             seed: 0,
             photons: PhotonConfig::default(),
+            sampler: Default::default(),
             region: None,
             denoise: false,
         }

@@ -10,6 +10,7 @@ use crate::{load, named, worker_threads};
 use caustix::accel::{Backend, BvhLayout};
 use caustix::config::{IntegratorKind, Region, RenderConfig};
 use caustix::film::Aov;
+use caustix::sampling::SamplerKind;
 use caustix::Rendered;
 
 /// `caustix render`.
@@ -71,6 +72,11 @@ pub struct SettingArgs {
     /// in available memory; the default). Overrides the scene's [render] bvh.
     #[arg(long, value_parser = named::<BvhLayout>(BvhLayout::NAMES.map(|(n, _)| n)))]
     bvh: Option<BvhLayout>,
+    /// Where camera samples get their random numbers: independent (stratified
+    /// pixel positions) or sobol (Owen-scrambled Sobol points in every
+    /// dimension). Overrides the scene's [render] sampler.
+    #[arg(long, value_parser = named::<SamplerKind>(SamplerKind::NAMES.map(|(n, _)| n)))]
+    sampler: Option<SamplerKind>,
     /// Image width in pixels (overrides the scene file).
     #[arg(long)]
     width: Option<u32>,
@@ -159,6 +165,7 @@ pub fn config(args: &SettingArgs, scene: &caustix::Scene) -> anyhow::Result<Rend
     c.integrator = args.integrator.unwrap_or(c.integrator);
     c.backend = args.backend.unwrap_or(c.backend);
     c.bvh = args.bvh.unwrap_or(c.bvh);
+    c.sampler = args.sampler.unwrap_or(c.sampler);
     c.seed = args.seed;
     set(&mut c.width, args.width);
     set(&mut c.height, args.height);

@@ -9,7 +9,7 @@ use super::{Context, Progress};
 use crate::accel::Ray;
 use crate::film::{Film, Sample};
 use crate::query::RayCount;
-use crate::sampling::{stratified, Rng};
+use crate::sampling::{stratified, Rng, SamplerKind};
 
 /// Side of the square tiles handed to threads.
 const TILE: u32 = 16;
@@ -59,8 +59,11 @@ pub fn render_pixels(
     (film, total)
 }
 
-/// Averages `radiance` over a pixel's camera rays: `config.samples`
-/// stratified, jittered samples (a single sample goes through the centre).
+/// Averages `radiance` over a pixel's camera rays: `config.samples` of them
+/// (a single sample goes through the centre). With the independent sampler
+/// they are stratified and jittered and share the pixel's stream `rng`; with
+/// Sobol, sample `i` draws everything (its position first) from its own
+/// low-discrepancy stream ([`Rng::sobol`]).
 pub fn average_over_pixel(
     ctx: &Context,
     (x, y): (u32, u32),
@@ -68,11 +71,23 @@ pub fn average_over_pixel(
     mut radiance: impl FnMut(Ray, &mut Rng) -> Sample,
 ) -> Sample {
     let c = ctx.config;
+    let camera_ray = |offset: glam::Vec2| {
+        let offset = if c.samples == 1 { glam::Vec2::splat(0.5) } else { offset };
+        ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height)
+    };
     let mut sum = Sample::default();
     for i in 0..c.samples {
-        let offset = if c.samples == 1 { glam::Vec2::splat(0.5) } else { stratified(i, c.samples, rng) };
-        let ray = ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height);
-        sum += radiance(ray, rng);
+        sum += match c.sampler {
+            SamplerKind::Independent => {
+                let offset = if c.samples == 1 { glam::Vec2::ZERO } else { stratified(i, c.samples, rng) };
+                radiance(camera_ray(offset), rng)
+            }
+            SamplerKind::Sobol => {
+                let mut sample = Rng::sobol(c.seed, y as u64 * c.width as u64 + x as u64, i);
+                let offset = sample.uniform2();
+                radiance(camera_ray(offset), &mut sample)
+            }
+        };
     }
     sum * (1.0 / c.samples as f32)
 }

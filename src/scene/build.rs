@@ -133,6 +133,7 @@ impl Builder<'_> {
             light_samples: r.light_samples,
             ambient: r.ambient.map_or(Vec3::ZERO, |a| a.0),
             denoise: r.denoise,
+            sampler: r.sampler,
             photons: self.photon_config(&f.photons)?,
             ..RenderConfig::default()
         })

@@ -113,6 +113,8 @@ pub struct RenderSection {
     pub ambient: Option<Power>,
     #[serde(default)]
     pub denoise: bool,
+    #[serde(default)]
+    pub sampler: crate::sampling::SamplerKind,
 }
 
 impl Default for RenderSection {
@@ -125,6 +127,7 @@ impl Default for RenderSection {
             light_samples: default_light_samples(),
             ambient: None,
             denoise: false,
+            sampler: Default::default(),
         }
     }
 }
