@@ -139,8 +139,8 @@ pub struct PhotonConfig {
     pub caustic_radius: Option<f32>,
     /// Cone filter constant for caustic estimates (at least 1); `None`: no filter.
     pub cone_filter: Option<f32>,
-    /// Final-gathering rays per pixel, shared over its samples; 0 shows the
-    /// global map directly.
+    /// Final-gathering rays per camera sample (so the gathering grows with
+    /// the samples); 0 shows the global map directly.
     pub gather_rays: u32,
     /// Most bounces a photon makes.
     pub max_bounces: u32,
@@ -158,7 +158,7 @@ impl Default for PhotonConfig {
             global_radius: None,
             caustic_radius: None,
             cone_filter: Some(1.1),
-            gather_rays: 64,
+            gather_rays: 16,
             max_bounces: 16,
             sppm: SppmConfig { passes: 64, photons_per_pass: 100_000, initial_radius: None, alpha: 0.7 },
         }

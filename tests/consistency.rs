@@ -107,7 +107,7 @@ fn photon_mapping_agrees_with_the_path_tracer_and_improves_with_photons() {
         let mut settings = RenderConfig { integrator: Integrator::Photon, samples: 16, ..base.clone() };
         settings.photons.global_photons = photons;
         settings.photons.caustic_photons = 2 * photons;
-        settings.photons.gather_rays = 256;
+        settings.photons.gather_rays = 16;
         let img = image(&scene, &settings);
         let e = block_error(&blocks(&img, &reference), &reference_blocks);
         let m = mean(&img, &reference);
@@ -184,7 +184,7 @@ fn every_integrator_splits_light_into_the_same_components() {
     let mut photon = RenderConfig { integrator: Integrator::Photon, samples: 16, ..base.clone() };
     photon.photons.global_photons = 20_000;
     photon.photons.caustic_photons = 100_000;
-    photon.photons.gather_rays = 256;
+    photon.photons.gather_rays = 16;
     let mut sppm = RenderConfig { integrator: Integrator::Sppm, ..base.clone() };
     sppm.photons.sppm.photons_per_pass = 20_000;
     sppm.photons.sppm.passes = 64;

@@ -41,7 +41,7 @@ fn scene(s: f64, t: f64) -> Scene {
         [photons]
         global = 20000
         caustic = 20000
-        gather_rays = 16
+        gather_rays = 8
         passes = 4
         pass_photons = 20000
         [materials.white]
@@ -196,7 +196,7 @@ fn the_same_image_at_every_decade() {
 #[test]
 fn hostile_scenes_render_finite_images() {
     let camera = "[camera]\neye = [0, 1, 3]\nlook_at = [0, 0.5, 0]\n[image]\nwidth = 16\nheight = 16\nsamples = 2\n\
-                  [photons]\nglobal = 5000\ncaustic = 5000\ngather_rays = 4\npasses = 2\npass_photons = 5000\n";
+                  [photons]\nglobal = 5000\ncaustic = 5000\ngather_rays = 2\npasses = 2\npass_photons = 5000\n";
     let scenes = [
         // A light grazing a plane 1e4 wide, 1e-4 above it.
         "[materials.w]\ndiffuse = 0.8\n[[area_light]]\ncenter = [0, 1e-4, 0]\nu = [1, 0, 0]\nv = [0, 0.001, 1]\npower = 50\n\

@@ -98,7 +98,7 @@ pub fn budget(base: &RenderConfig, integrator: Integrator, level: u32, levels: u
         Integrator::Path => s.samples = 16 * m,
         Integrator::Photon => {
             s.samples = m;
-            s.photons.gather_rays = 16 * m;
+            s.photons.gather_rays = 16;
             let scale = |n: u32| ((n as u64 * m as u64) >> (levels - 1)).max(1) as u32;
             s.photons.global_photons = scale(base.photons.global_photons);
             s.photons.caustic_photons = scale(base.photons.caustic_photons);
@@ -115,7 +115,7 @@ fn describe(s: &RenderConfig) -> String {
     match s.integrator {
         Integrator::Path => format!("{} spp", s.samples),
         Integrator::Photon => format!(
-            "{} spp, {} gather rays, {} global + {} caustic photons",
+            "{} spp, {} gather rays each, {} global + {} caustic photons",
             s.samples, p.gather_rays, p.global_photons, p.caustic_photons
         ),
         Integrator::Sppm => format!("{} passes of {} photons", p.sppm.passes, p.sppm.photons_per_pass),

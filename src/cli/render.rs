@@ -110,8 +110,8 @@ pub struct SettingArgs {
     /// Largest search radius of a caustic estimate (overrides [photons] caustic_radius).
     #[arg(long)]
     caustic_radius: Option<f32>,
-    /// Final-gathering rays per pixel, shared over its samples; 0 shows the
-    /// global map directly (overrides [photons] gather_rays).
+    /// Final-gathering rays per camera sample; 0 shows the global map
+    /// directly (overrides [photons] gather_rays).
     #[arg(long)]
     gather_rays: Option<u32>,
     /// Passes of progressive photon mapping (overrides [photons] passes).

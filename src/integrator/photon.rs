@@ -35,7 +35,7 @@ impl Integrator for PhotonMapping {
             maps,
             global_estimate: photons.global_estimate(ctx.diagonal),
             caustic_estimate: photons.caustic_estimate(ctx.diagonal),
-            gather_per_sample: photons.gather_rays.div_ceil(ctx.config.samples),
+            gather_per_sample: photons.gather_rays,
         };
         let tracer = WhittedTracer { ctx, surface_light: Some(&light) };
         let s = &maps.stats;
@@ -94,8 +94,9 @@ impl MapLight<'_> {
     /// rays sample the light arriving from the hemisphere, each asking the
     /// global map for the radiance leaving the diffuse surface it meets.
     ///
-    /// The gather rays are shared out over the pixel's samples and scaled by
-    /// the weight of the path that got here (`throughput`), at least one: a
+    /// Each camera sample sends its own gather rays (so more samples mean
+    /// more gathering, and the estimate keeps converging), scaled by the
+    /// weight of the path that got here (`throughput`), at least one: a
     /// surface seen through a 4% glass reflection needs few. Any count gives
     /// an unbiased estimate; fewer only add noise where it is weighted down.
     fn final_gather(
