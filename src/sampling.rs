@@ -30,11 +30,7 @@ impl SamplerKind {
 impl std::str::FromStr for SamplerKind {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        Self::NAMES
-            .iter()
-            .find(|(n, _)| *n == s)
-            .map(|(_, v)| *v)
-            .ok_or_else(|| format!("unknown sampler `{s}`; choose from independent, sobol"))
+        crate::accel::named(&Self::NAMES, s)
     }
 }
 

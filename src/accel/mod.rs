@@ -59,8 +59,9 @@ impl std::str::FromStr for BvhLayout {
     }
 }
 
-/// The value called `name` among `names`, or an error listing them.
-fn named<T: Copy>(names: &[(&'static str, T)], name: &str) -> std::result::Result<T, String> {
+/// The value called `name` among `names`, or an error listing them (the
+/// `FromStr` of the settings named in scene files and on the command line).
+pub(crate) fn named<T: Copy>(names: &[(&'static str, T)], name: &str) -> std::result::Result<T, String> {
     names.iter().find(|(n, _)| *n == name).map(|(_, v)| *v).ok_or_else(|| {
         let all: Vec<&str> = names.iter().map(|(n, _)| *n).collect();
         format!("unknown value `{name}`; choose from {}", all.join(", "))

@@ -156,6 +156,23 @@ fn build_accel(scene: &Scene) -> anyhow::Result<Box<dyn caustix::accel::Intersec
         .context("building the ray intersector")
 }
 
+/// A pool of `threads` workers (0: all cores) and, built inside it so that
+/// `--threads` bounds the BVH build too, the intersector `settings` ask for.
+fn pool_and_accel<'s>(
+    threads: usize,
+    scene: &'s Scene,
+    settings: &caustix::RenderConfig,
+) -> anyhow::Result<(rayon::ThreadPool, Box<dyn caustix::accel::Intersector + 's>)> {
+    let pool =
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("starting worker threads")?;
+    let accel = pool
+        .install(|| {
+            caustix::accel::build_with_layout(settings.backend, settings.bvh, &scene.triangle_views())
+        })
+        .context("building the ray intersector")?;
+    Ok((pool, accel))
+}
+
 /// Most worker threads `--threads` may ask for (a typo like 100000 would
 /// start that many).
 const MAX_THREADS: u32 = 1024;

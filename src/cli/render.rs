@@ -3,10 +3,9 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
-use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::{load, named, worker_threads};
+use crate::{load, named, pool_and_accel, worker_threads};
 use caustix::accel::{Backend, BvhLayout};
 use caustix::config::{IntegratorKind, Region, RenderConfig};
 use caustix::film::Aov;
@@ -269,14 +268,7 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         None => None,
     };
 
-    let pool =
-        rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("starting worker threads")?;
-    // Inside the pool, so that --threads bounds the BVH builds too.
-    let accel = pool
-        .install(|| {
-            caustix::accel::build_with_layout(settings.backend, settings.bvh, &scene.triangle_views())
-        })
-        .context("building the ray intersector")?;
+    let (pool, accel) = pool_and_accel(threads, &scene, &settings)?;
 
     let work = caustix::integrator::work_units(&settings);
     let bar = if std::io::stderr().is_terminal() { ProgressBar::new(work) } else { ProgressBar::hidden() };

@@ -5,10 +5,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Context;
-
 use crate::render::{config, in_flags, SettingArgs};
-use crate::{load, worker_threads};
+use crate::{load, pool_and_accel, worker_threads};
 
 /// `caustix photons`.
 #[derive(clap::Args)]
@@ -48,13 +46,7 @@ pub fn photons(args: PhotonsArgs) -> anyhow::Result<()> {
     let threads = worker_threads(args.threads)?;
     let scene = load(scene_path)?;
     let settings = config(&args.settings, &scene)?;
-    let pool =
-        rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("starting worker threads")?;
-    let accel = pool
-        .install(|| {
-            caustix::accel::build_with_layout(settings.backend, settings.bvh, &scene.triangle_views())
-        })
-        .context("building the ray intersector")?;
+    let (pool, accel) = pool_and_accel(threads, &scene, &settings)?;
     let diagonal = caustix::integrator::Context::diagonal_of(&scene);
     let query = caustix::query::SceneQuery::new(&scene, accel.as_ref());
     let maps =
