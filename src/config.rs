@@ -27,6 +27,8 @@ pub mod limits {
     pub const MAX_PHOTONS: u32 = 100_000_000;
     /// Most passes progressive photon mapping may be asked for.
     pub const MAX_PASSES: u32 = 1_000_000;
+    /// Longest time budget, in seconds (a month).
+    pub const MAX_TIME: f32 = 2_592_000.0;
     /// Most photons one radiance estimate may use.
     pub const MAX_NEIGHBOURS: u32 = 100_000;
     /// Farthest a vertex may lie from the camera: triangle tests multiply
@@ -223,6 +225,12 @@ pub struct RenderConfig {
     /// Where camera samples get their random numbers (Whitted, photon
     /// mapping, the path tracer; SPPM keeps one stream per pixel).
     pub sampler: crate::sampling::SamplerKind,
+    /// Refine until this many seconds have passed instead of taking a fixed
+    /// number of samples (`None`): the path tracer, Whitted and photon
+    /// mapping add camera samples (and with them gather rays) in rounds,
+    /// SPPM adds passes. The image is written when the next round would not
+    /// fit in the budget.
+    pub time: Option<f32>,
     /// Render only this part of the image (`None`: all of it). Every pixel
     /// has its own random stream, so a region's pixels are bit-identical to
     /// the same pixels of the whole image; the film holds the region alone.
@@ -249,6 +257,7 @@ impl Default for RenderConfig {
             seed: 0,
             photons: PhotonConfig::default(),
             sampler: Default::default(),
+            time: None,
             region: None,
             denoise: false,
         }
@@ -385,6 +394,12 @@ impl RenderConfig {
             return Err(Error::Setting {
                 name: "sppm_alpha",
                 message: format!("must lie between 0 and 1 (exclusive), found {alpha}"),
+            });
+        }
+        if let Some(t) = self.time.filter(|t| !(t.is_finite() && *t > 0.0 && *t <= MAX_TIME)) {
+            return Err(Error::Setting {
+                name: "time",
+                message: format!("must be a number of seconds above 0 and at most {MAX_TIME}, found {t}"),
             });
         }
         if let Some(r) = self.region {

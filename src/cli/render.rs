@@ -30,6 +30,11 @@ pub struct RenderArgs {
     /// top, x1 and y1 excluded). As an .exr it is a tile for `caustix merge`.
     #[arg(long, value_parser = parse_crop)]
     crop: Option<Region>,
+    /// Refine for this many seconds instead of a fixed sample count: more
+    /// camera samples (and gather rays) in rounds for the path tracer,
+    /// Whitted and photon mapping, more passes for SPPM (overrides [render] time).
+    #[arg(long)]
+    time: Option<f32>,
     /// Photon maps traced beforehand by `caustix photons` (same scene and
     /// settings), used instead of tracing them.
     #[arg(long)]
@@ -238,6 +243,7 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let scene = load(scene_path)?;
     let mut settings = config(&args.settings, &scene)?;
     settings.denoise |= args.denoise;
+    settings.time = args.time.or(settings.time);
     settings.region = match args.tile {
         Some((i, n)) => {
             anyhow::ensure!(
@@ -272,13 +278,19 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
 
     let work = caustix::integrator::work_units(&settings);
     let bar = if std::io::stderr().is_terminal() { ProgressBar::new(work) } else { ProgressBar::hidden() };
-    bar.set_style(
-        ProgressStyle::with_template(
+    let style = match settings.time {
+        // The work a time budget allows is not known ahead.
+        Some(seconds) => ProgressStyle::with_template(&format!(
+            "{{spinner}} rendering for {seconds} s: {{elapsed}} elapsed, {{pos}} pixel samples"
+        )),
+        None => ProgressStyle::with_template(
             "{spinner} rendering [{bar:40}] {percent}% {elapsed} elapsed, {eta} left",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
+        ),
+    };
+    bar.set_style(style.expect("valid template").progress_chars("=> "));
+    if settings.time.is_some() {
+        bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    }
     let rendered = pool
         .install(|| {
             caustix::integrator::render_with_maps(&scene, accel.as_ref(), &settings, maps.as_ref(), &|n| {
@@ -341,7 +353,7 @@ fn summary(
         settings.width,
         settings.height,
         settings.integrator,
-        caustix::integrator::samples_per_pixel(settings),
+        rendered.stats.samples_per_pixel,
         rays.closest,
         rays.shadow,
         (rays.closest + rays.shadow) as f64 / seconds.max(1e-9) / 1e6,

@@ -36,9 +36,24 @@ pub struct Context<'a> {
     pub config: &'a RenderConfig,
     /// Length of the scene's bounding-box diagonal: default radii are fractions of it.
     pub diagonal: f32,
-    /// Photon maps made beforehand (loaded from a file), for the
-    /// integrators that use them; `None`: they trace their own.
+    /// Photon maps made beforehand (loaded from a file, or built once for
+    /// all the rounds of a render to a time budget), for the integrators
+    /// that use them; `None`: they trace their own.
     pub photon_maps: Option<&'a PhotonMaps>,
+    /// The camera samples of each pixel this pass takes: all of them, or
+    /// one round of a render to a time budget.
+    pub samples: SampleRange,
+}
+
+/// Camera samples `first .. first + count` of every pixel (by index: each
+/// sample's random numbers depend on its index, so rounds continue where
+/// the last one stopped).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SampleRange {
+    /// The first sample's index.
+    pub first: u32,
+    /// How many.
+    pub count: u32,
 }
 
 impl<'a> Context<'a> {
@@ -49,6 +64,7 @@ impl<'a> Context<'a> {
             config,
             diagonal: Context::diagonal_of(scene),
             photon_maps: None,
+            samples: SampleRange { first: 0, count: config.samples },
         }
     }
 
@@ -77,7 +93,20 @@ pub trait Integrator: Sync {
         config.samples
     }
 
-    /// Renders the whole image.
+    /// Whether more camera samples refine its image, so that a time budget
+    /// renders in rounds of samples ([`RenderConfig::time`]).
+    fn refines_by_samples(&self) -> bool {
+        false
+    }
+
+    /// Photon maps to build once for all the rounds of a render to a time
+    /// budget (for the integrators that read them).
+    fn photon_maps(&self, _ctx: &Context) -> Option<PhotonMaps> {
+        None
+    }
+
+    /// Renders the image: the samples of `ctx.samples`, or (SPPM) as many
+    /// passes as the settings or the time budget ask.
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered;
 }
 
@@ -102,6 +131,8 @@ pub struct RenderStats {
     pub rays: RayCount,
     /// Lines worth telling the user (what photon maps were built or skipped).
     pub notes: Vec<String>,
+    /// Camera samples per pixel taken (passes for SPPM, one for the previews).
+    pub samples_per_pixel: u32,
 }
 
 /// A finished render.
@@ -117,7 +148,7 @@ impl Rendered {
     /// A render's film with the rays it traced and its notes; [`render`]
     /// times it.
     pub fn new(film: Film, rays: RayCount, notes: Vec<String>) -> Rendered {
-        Rendered { film, stats: RenderStats { elapsed: Duration::ZERO, rays, notes } }
+        Rendered { film, stats: RenderStats { elapsed: Duration::ZERO, rays, notes, samples_per_pixel: 0 } }
     }
 }
 
@@ -147,10 +178,77 @@ pub fn render_with_maps(
     let start = Instant::now();
     let integrator = create(config.integrator);
     let ctx = Context { photon_maps: maps, ..Context::new(scene, accel, config) };
-    let mut rendered = integrator.render(&ctx, progress);
+    let mut rendered = match config.time {
+        Some(seconds) if integrator.refines_by_samples() => {
+            render_to_time(integrator.as_ref(), &ctx, Duration::from_secs_f32(seconds), start, progress)
+        }
+        _ => integrator.render(&ctx, progress),
+    };
+    if rendered.stats.samples_per_pixel == 0 {
+        rendered.stats.samples_per_pixel = integrator.samples_per_pixel(config);
+    }
     rendered.stats.elapsed = start.elapsed();
     check_finite(&rendered.film, config)?;
     Ok(rendered)
+}
+
+/// Renders in rounds of camera samples until the time budget (counted from
+/// `start`) would not fit another: one sample per pixel, then as many again
+/// each round (doubling), fewer when the time left affords fewer, by the
+/// last round's time per sample. Photon maps are built once for all rounds.
+/// Sample `i` of a pixel draws the same numbers as in a plain render, so
+/// with the Sobol sampler the image equals a plain render of the samples
+/// taken (up to the order of the sums).
+fn render_to_time(
+    integrator: &dyn Integrator,
+    ctx: &Context,
+    budget: Duration,
+    start: Instant,
+    progress: &Progress,
+) -> Rendered {
+    let built = match ctx.photon_maps {
+        Some(_) => None,
+        None => integrator.photon_maps(ctx),
+    };
+    let ctx = Context { photon_maps: ctx.photon_maps.or(built.as_ref()), ..*ctx };
+    let max = crate::config::limits::MAX_SAMPLES;
+    let (mut done, mut batch, mut rounds) = (0u32, 1u32, 0u32);
+    let mut sum: Vec<crate::film::Sample> = Vec::new();
+    let mut first: Option<Rendered> = None;
+    let mut rays = RayCount::default();
+    loop {
+        let round_start = Instant::now();
+        let round = Context { samples: SampleRange { first: done, count: batch }, ..ctx };
+        let rendered = integrator.render(&round, progress);
+        let per_sample = round_start.elapsed().as_secs_f64() / batch as f64;
+        rays += rendered.stats.rays;
+        if sum.is_empty() {
+            sum = vec![Default::default(); rendered.film.pixels.len()];
+        }
+        for (s, p) in sum.iter_mut().zip(&rendered.film.pixels) {
+            *s += *p * batch as f32;
+        }
+        first.get_or_insert(rendered);
+        done += batch;
+        rounds += 1;
+        let left = budget.as_secs_f64() - start.elapsed().as_secs_f64();
+        let affordable = (left / per_sample.max(1e-9)).floor().min((max - done) as f64) as u32;
+        if affordable == 0 {
+            break;
+        }
+        batch = done.min(affordable);
+    }
+    let mut rendered = first.expect("at least one round");
+    for (p, s) in rendered.film.pixels.iter_mut().zip(sum) {
+        *p = s * (1.0 / done as f32);
+    }
+    rendered.stats.rays = rays;
+    rendered.stats.samples_per_pixel = done;
+    rendered.stats.notes.push(format!(
+        "time budget {:.1} s: {done} samples per pixel in {rounds} rounds",
+        budget.as_secs_f64()
+    ));
+    rendered
 }
 
 /// Checks, before any work, that `config` is valid ([`RenderConfig::validate`])

@@ -27,6 +27,10 @@ use crate::sampling::Rng;
 pub struct PathTracer;
 
 impl Integrator for PathTracer {
+    fn refines_by_samples(&self) -> bool {
+        true
+    }
+
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
         let (film, rays) = render_pixels(ctx, progress, |x, y, rng, count| {
             average_over_pixel(ctx, (x, y), rng, |ray, rng| radiance(ctx, ray, rng, count))

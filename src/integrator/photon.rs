@@ -20,6 +20,15 @@ use crate::sampling::{around, cosine_hemisphere, stratified, Rng};
 pub struct PhotonMapping;
 
 impl Integrator for PhotonMapping {
+    fn refines_by_samples(&self) -> bool {
+        true
+    }
+
+    fn photon_maps(&self, ctx: &Context) -> Option<PhotonMaps> {
+        let p = &ctx.config.photons;
+        Some(build_maps(&ctx.query, p, ctx.config.seed, ctx.diagonal))
+    }
+
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
         let photons = &ctx.config.photons;
         let traced;
@@ -39,15 +48,16 @@ impl Integrator for PhotonMapping {
         };
         let tracer = WhittedTracer { ctx, surface_light: Some(&light) };
         let s = &maps.stats;
-        let mut notes = vec![match ctx.photon_maps {
-            None => format!(
-                "photons: {} global and {} caustic emitted, traced in {:.2} s, maps built in {:.2} s",
-                s.global_emitted, s.caustic_emitted, s.trace_seconds, s.build_seconds
-            ),
-            Some(_) => format!(
+        let mut notes = vec![if s.loaded {
+            format!(
                 "photons: {} global and {} caustic, from the saved maps",
                 s.global_emitted, s.caustic_emitted
-            ),
+            )
+        } else {
+            format!(
+                "photons: {} global and {} caustic emitted, traced in {:.2} s, maps built in {:.2} s",
+                s.global_emitted, s.caustic_emitted, s.trace_seconds, s.build_seconds
+            )
         }];
         notes.extend(s.skipped.iter().map(|line| format!("photons: {line}")));
         tracer.render(progress, notes)

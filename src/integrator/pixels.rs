@@ -24,7 +24,9 @@ pub fn render_pixels(
 ) -> (Film, RayCount) {
     let width = ctx.config.width;
     let region = ctx.config.region();
-    let seed = ctx.config.seed;
+    // Rounds after the first of a render to a time budget draw from other
+    // streams (the first round's are the plain render's).
+    let seed = ctx.config.seed.wrapping_add(ctx.samples.first as u64 * 0x9E37_79B9_7F4A_7C15);
     let tiles: Vec<(u32, u32)> = (region.y0..region.y1)
         .step_by(TILE as usize)
         .flat_map(|y0| (region.x0..region.x1).step_by(TILE as usize).map(move |x0| (x0, y0)))
@@ -59,11 +61,11 @@ pub fn render_pixels(
     (film, total)
 }
 
-/// Averages `radiance` over a pixel's camera rays: `config.samples` of them
-/// (a single sample goes through the centre). With the independent sampler
-/// they are stratified and jittered and share the pixel's stream `rng`; with
-/// Sobol, sample `i` draws everything (its position first) from its own
-/// low-discrepancy stream ([`Rng::sobol`]).
+/// Averages `radiance` over a pixel's camera rays: the samples of
+/// `ctx.samples` (a render of a single sample goes through the centre).
+/// With the independent sampler they are stratified and jittered and share
+/// the pixel's stream `rng`; with Sobol, sample `i` draws everything (its
+/// position first) from its own low-discrepancy stream ([`Rng::sobol`]).
 pub fn average_over_pixel(
     ctx: &Context,
     (x, y): (u32, u32),
@@ -71,15 +73,19 @@ pub fn average_over_pixel(
     mut radiance: impl FnMut(Ray, &mut Rng) -> Sample,
 ) -> Sample {
     let c = ctx.config;
+    let range = ctx.samples;
+    // One sample in all (not one round of many): the pixel's centre.
+    let single = range.first == 0 && range.count == 1 && c.time.is_none();
     let camera_ray = |offset: glam::Vec2| {
-        let offset = if c.samples == 1 { glam::Vec2::splat(0.5) } else { offset };
+        let offset = if single { glam::Vec2::splat(0.5) } else { offset };
         ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height)
     };
     let mut sum = Sample::default();
-    for i in 0..c.samples {
+    for i in range.first..range.first + range.count {
         sum += match c.sampler {
             SamplerKind::Independent => {
-                let offset = if c.samples == 1 { glam::Vec2::ZERO } else { stratified(i, c.samples, rng) };
+                let offset =
+                    if single { glam::Vec2::ZERO } else { stratified(i - range.first, range.count, rng) };
                 radiance(camera_ray(offset), rng)
             }
             SamplerKind::Sobol => {
@@ -89,5 +95,5 @@ pub fn average_over_pixel(
             }
         };
     }
-    sum * (1.0 / c.samples as f32)
+    sum * (1.0 / range.count as f32)
 }

@@ -23,6 +23,10 @@ use crate::sampling::Rng;
 pub struct Whitted;
 
 impl Integrator for Whitted {
+    fn refines_by_samples(&self) -> bool {
+        true
+    }
+
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
         let tracer = WhittedTracer { ctx, surface_light: None };
         tracer.render(progress, Vec::new())

@@ -296,6 +296,7 @@ impl Reader<'_> {
                 }
                 notes
             },
+            loaded: true,
         };
         let global = self.map()?;
         let caustic = self.map()?;

@@ -43,6 +43,8 @@ pub struct PhotonStats {
     pub build_seconds: f64,
     /// One line per map that was not built, saying why.
     pub skipped: Vec<String>,
+    /// Whether the maps were loaded from a file rather than traced now.
+    pub loaded: bool,
 }
 
 /// The photon maps of a scene.

@@ -134,6 +134,7 @@ impl Builder<'_> {
             ambient: r.ambient.map_or(Vec3::ZERO, |a| a.0),
             denoise: r.denoise,
             sampler: r.sampler,
+            time: r.time,
             photons: self.photon_config(&f.photons)?,
             ..RenderConfig::default()
         })

@@ -115,6 +115,8 @@ pub struct RenderSection {
     pub denoise: bool,
     #[serde(default)]
     pub sampler: crate::sampling::SamplerKind,
+    #[serde(default)]
+    pub time: Option<f32>,
 }
 
 impl Default for RenderSection {
@@ -128,6 +130,7 @@ impl Default for RenderSection {
             ambient: None,
             denoise: false,
             sampler: Default::default(),
+            time: None,
         }
     }
 }

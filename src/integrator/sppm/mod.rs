@@ -52,11 +52,33 @@ impl Integrator for Sppm {
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
         let start = Instant::now();
         let mut run = Progressive::new(ctx);
-        for _ in 0..ctx.config.photons.sppm.passes {
-            run.run_pass();
-            progress(ctx.config.pixels());
+        match ctx.config.time {
+            // Passes until the next (as long as the longest so far) would not fit.
+            Some(budget) => {
+                let mut longest = 0.0f64;
+                while run.passes() < crate::config::limits::MAX_PASSES {
+                    let pass_start = Instant::now();
+                    run.run_pass();
+                    progress(ctx.config.pixels());
+                    longest = longest.max(pass_start.elapsed().as_secs_f64());
+                    if start.elapsed().as_secs_f64() + longest > budget as f64 {
+                        break;
+                    }
+                }
+            }
+            None => {
+                for _ in 0..ctx.config.photons.sppm.passes {
+                    run.run_pass();
+                    progress(ctx.config.pixels());
+                }
+            }
         }
-        run.rendered(start.elapsed())
+        let mut rendered = run.rendered(start.elapsed());
+        rendered.stats.samples_per_pixel = run.passes();
+        if let Some(budget) = ctx.config.time {
+            rendered.stats.notes.push(format!("time budget {budget:.1} s: {} passes", run.passes()));
+        }
+        rendered
     }
 }
 

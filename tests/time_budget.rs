@@ -1,0 +1,93 @@
+//! Rendering to a time budget (`RenderConfig::time`, `--time`): rounds of
+//! camera samples for the path tracer, Whitted and photon mapping, passes for
+//! SPPM. What is asserted is what does not depend on this machine's speed:
+//! the image of `N` samples taken in rounds is the plain render of `N`
+//! samples (the rounds continue the same sample sequence), and bad budgets
+//! are refused. How error falls with the budget is in BENCHMARKS.md.
+
+mod common;
+
+use std::path::Path;
+
+use caustix::accel::{build, Backend};
+use caustix::config::IntegratorKind;
+use caustix::{RenderConfig, Scene};
+
+fn cornell() -> Scene {
+    Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml")).unwrap()
+}
+
+#[test]
+fn samples_taken_in_rounds_make_the_plain_render_of_as_many_samples() {
+    let scene = cornell();
+    let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
+    for integrator in [IntegratorKind::Path, IntegratorKind::Photon, IntegratorKind::Whitted] {
+        let mut config =
+            RenderConfig { integrator, width: 8, height: 8, time: Some(0.3), ..scene.config.clone() };
+        config.photons.global_photons = 5_000;
+        config.photons.caustic_photons = 5_000;
+        let timed = caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap();
+        let n = timed.stats.samples_per_pixel;
+        assert!(n >= 2, "{integrator:?}: only {n} samples in 0.3 s");
+        assert!(
+            timed.stats.notes.iter().any(|l| l.contains(&format!("{n} samples per pixel"))),
+            "{:?}",
+            timed.stats.notes
+        );
+        let plain = RenderConfig { time: None, samples: n, ..config };
+        let plain = caustix::render(&scene, accel.as_ref(), &plain, &|_| {}).unwrap();
+        for (i, (a, b)) in timed.film.pixels.iter().zip(&plain.film.pixels).enumerate() {
+            let (a, b) = (a.total(), b.total());
+            assert!(
+                (a - b).abs().max_element() <= 1e-4 * b.max_element().max(1e-3),
+                "{integrator:?}, {n} samples: pixel {i} is {a} in rounds, {b} plainly"
+            );
+        }
+    }
+}
+
+#[test]
+fn sppm_runs_passes_until_the_budget() {
+    let scene = cornell();
+    let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
+    let mut config = RenderConfig {
+        integrator: IntegratorKind::Sppm,
+        width: 16,
+        height: 16,
+        time: Some(0.2),
+        ..scene.config.clone()
+    };
+    config.photons.sppm.photons_per_pass = 2_000;
+    let rendered = caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap();
+    let passes = rendered.stats.samples_per_pixel;
+    assert!(passes >= 1);
+    assert!(
+        rendered.stats.notes.iter().any(|l| l.contains(&format!("{passes} passes"))),
+        "{:?}",
+        rendered.stats.notes
+    );
+    assert!(rendered.film.pixels.iter().any(|p| p.total().max_element() > 0.0));
+}
+
+#[test]
+fn budgets_out_of_range_are_refused() {
+    let scene = cornell();
+    for bad in [0.0, -1.0, f32::NAN, f32::INFINITY, 1e9] {
+        let config = RenderConfig { time: Some(bad), ..scene.config.clone() };
+        match config.validate() {
+            Err(caustix::Error::Setting { name: "time", .. }) => {}
+            other => panic!("time {bad}: {other:?}"),
+        }
+    }
+    let out = common::caustix(&[
+        "render".as_ref(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml").as_os_str(),
+        "--time".as_ref(),
+        "0".as_ref(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("--time must be a number of seconds above 0"),
+        "{stderr}"
+    );
+}
