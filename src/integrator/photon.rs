@@ -35,7 +35,7 @@ impl Integrator for PhotonMapping {
         let maps = match ctx.photon_maps {
             Some(loaded) => loaded,
             None => {
-                traced = build_maps(&ctx.query, photons, ctx.config.seed, ctx.diagonal);
+                traced = self.photon_maps(ctx).expect("photon mapping builds its maps");
                 &traced
             }
         };
