@@ -45,7 +45,8 @@ pub fn photons(args: PhotonsArgs) -> anyhow::Result<()> {
     caustix::files::check_writable(&output)?;
     let threads = worker_threads(args.threads)?;
     let scene = load(scene_path)?;
-    let settings = config(&args.settings, &scene)?;
+    let settings = config(&args.settings, &scene);
+    caustix::integrator::check(&scene, &settings).map_err(in_flags)?;
     let (pool, accel) = pool_and_accel(threads, &scene, &settings)?;
     let diagonal = caustix::integrator::Context::diagonal_of(&scene);
     let query = caustix::query::SceneQuery::new(&scene, accel.as_ref());

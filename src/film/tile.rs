@@ -8,7 +8,6 @@
 //! scene file's name, for messages. Pixels are 32-bit floats, stored
 //! losslessly: merged tiles are bit-identical to one whole render.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use exr::meta::attribute::{AttributeValue, IntegerBounds, Text};
@@ -193,21 +192,18 @@ pub fn merge(tiles: &[(PathBuf, Tile)]) -> Result<Image> {
             image.pixels[at] = *value;
         }
     }
-    let missing = owner.iter().filter(|o| o.is_none()).count();
-    if let Some(first_missing) = owner.iter().position(Option::is_none) {
-        let (x, y) = (first_missing as u32 % width, first_missing as u32 / width);
-        let rows: HashMap<u32, ()> = owner
-            .iter()
-            .enumerate()
-            .filter(|(_, o)| o.is_none())
-            .map(|(i, _)| (i as u32 / width, ()))
-            .collect();
-        let (low, high) = (rows.keys().min().copied().unwrap_or(y), rows.keys().max().copied().unwrap_or(y));
+    // The uncovered pixels, by index: the first and last give the rows.
+    let uncovered: Vec<usize> =
+        owner.iter().enumerate().filter(|(_, o)| o.is_none()).map(|(i, _)| i).collect();
+    if let (Some(&first), Some(&last)) = (uncovered.first(), uncovered.last()) {
+        let (x, y) = (first as u32 % width, first as u32 / width);
+        let last_row = last as u32 / width;
         return Err(Error::input(
             first_path,
             format!(
-                "the tiles leave {missing} pixels of the {width}x{height} image uncovered, the first at ({x}, {y}), \
-                 in rows {low} to {high}: a tile is missing"
+                "the tiles leave {} pixels of the {width}x{height} image uncovered, the first at ({x}, {y}), \
+                 in rows {y} to {last_row}: a tile is missing",
+                uncovered.len()
             ),
         ));
     }

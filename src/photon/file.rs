@@ -155,35 +155,22 @@ pub fn load(path: &Path, scene: &Scene, config: &RenderConfig, diagonal: f32) ->
         ));
     }
     let mut r = Reader { bytes: body, at: 8 };
-    let truncated = |_| bad("truncated or corrupted: it ends early".into());
-    let fingerprint = r.u64().map_err(truncated)?;
-    if fingerprint != scene.fingerprint() {
+    let failed = |f: Failure| bad(f.unwrap_or_else(|| "truncated or corrupted: it ends early".into()));
+    if r.u64().map_err(failed)? != scene.fingerprint() {
         return Err(bad(format!(
             "made for another scene (or another version of {}): its geometry, materials, lights or camera \
              position differ; trace the maps for this scene with `caustix photons`",
             scene.path.display()
         )));
     }
-    let file = (|| -> std::result::Result<MapSettings, ()> {
-        Ok(MapSettings {
-            seed: r.u64()?,
-            global_photons: r.u32()?,
-            caustic_photons: r.u32()?,
-            max_bounces: r.u32()?,
-            for_gathering: r.u8()? != 0,
-            global_k: r.u32()?,
-            global_radius: r.f32()?,
-        })
-    })()
-    .map_err(truncated)?;
-    let differences = file.differences(&MapSettings::of(config, diagonal));
+    let differences = r.settings().map_err(failed)?.differences(&MapSettings::of(config, diagonal));
     if !differences.is_empty() {
         return Err(bad(format!(
             "made with other photon settings ({}); trace them again with the same settings as the render",
             differences.join(", ")
         )));
     }
-    r.maps().map_err(|e| bad(e.unwrap_or_else(|| "truncated or corrupted: it ends early".into())))
+    r.maps().map_err(failed)
 }
 
 /// Little-endian output.
@@ -232,44 +219,44 @@ impl Writer {
     }
 }
 
-/// Little-endian input; `Err(())` where the bytes run out.
+/// Reading failed: `None` where the bytes ran out, else what is wrong.
+type Failure = Option<String>;
+
+/// Little-endian input.
 struct Reader<'a> {
     bytes: &'a [u8],
     at: usize,
 }
 
-/// Reading failed: `None` where the bytes ran out, else what is wrong.
-type Failure = Option<String>;
-
 impl Reader<'_> {
-    fn take<const N: usize>(&mut self) -> std::result::Result<[u8; N], ()> {
-        let end = self.at.checked_add(N).ok_or(())?;
-        let bytes = self.bytes.get(self.at..end).ok_or(())?;
+    fn take<const N: usize>(&mut self) -> std::result::Result<[u8; N], Failure> {
+        let end = self.at.checked_add(N).ok_or(None)?;
+        let bytes = self.bytes.get(self.at..end).ok_or(None)?;
         self.at = end;
         Ok(bytes.try_into().expect("N bytes"))
     }
-    fn u8(&mut self) -> std::result::Result<u8, ()> {
+    fn u8(&mut self) -> std::result::Result<u8, Failure> {
         Ok(self.take::<1>()?[0])
     }
-    fn u32(&mut self) -> std::result::Result<u32, ()> {
+    fn u32(&mut self) -> std::result::Result<u32, Failure> {
         self.take().map(u32::from_le_bytes)
     }
-    fn u64(&mut self) -> std::result::Result<u64, ()> {
+    fn u64(&mut self) -> std::result::Result<u64, Failure> {
         self.take().map(u64::from_le_bytes)
     }
-    fn f32(&mut self) -> std::result::Result<f32, ()> {
+    fn f32(&mut self) -> std::result::Result<f32, Failure> {
         self.take().map(f32::from_le_bytes)
     }
-    fn f64(&mut self) -> std::result::Result<f64, ()> {
+    fn f64(&mut self) -> std::result::Result<f64, Failure> {
         self.take().map(f64::from_le_bytes)
     }
-    fn vec3(&mut self) -> std::result::Result<Vec3, ()> {
+    fn vec3(&mut self) -> std::result::Result<Vec3, Failure> {
         Ok(Vec3::new(self.f32()?, self.f32()?, self.f32()?))
     }
 
     /// A count of records of `size` bytes each, checked against what is left.
     fn count(&mut self, size: usize) -> std::result::Result<usize, Failure> {
-        let n = self.u64().map_err(|()| None)?;
+        let n = self.u64()?;
         let left = (self.bytes.len() - self.at) / size;
         if n > left as u64 {
             return Err(Some(format!("it claims {n} records where {left} fit: corrupted")));
@@ -277,17 +264,29 @@ impl Reader<'_> {
         Ok(n as usize)
     }
 
+    fn settings(&mut self) -> std::result::Result<MapSettings, Failure> {
+        Ok(MapSettings {
+            seed: self.u64()?,
+            global_photons: self.u32()?,
+            caustic_photons: self.u32()?,
+            max_bounces: self.u32()?,
+            for_gathering: self.u8()? != 0,
+            global_k: self.u32()?,
+            global_radius: self.f32()?,
+        })
+    }
+
     fn maps(&mut self) -> std::result::Result<PhotonMaps, Failure> {
         let stats = PhotonStats {
-            global_emitted: self.u64().map_err(|()| None)?,
-            caustic_emitted: self.u64().map_err(|()| None)?,
-            trace_seconds: self.f64().map_err(|()| None)?,
-            build_seconds: self.f64().map_err(|()| None)?,
+            global_emitted: self.u64()?,
+            caustic_emitted: self.u64()?,
+            trace_seconds: self.f64()?,
+            build_seconds: self.f64()?,
             skipped: {
                 let n = self.count(4)?;
                 let mut notes = Vec::with_capacity(n);
                 for _ in 0..n {
-                    let len = self.u32().map_err(|()| None)? as usize;
+                    let len = self.u32()? as usize;
                     let end = self.at.checked_add(len).filter(|&e| e <= self.bytes.len()).ok_or(None)?;
                     let text = std::str::from_utf8(&self.bytes[self.at..end])
                         .map_err(|_| Some("a note is not UTF-8: corrupted".to_string()))?;
@@ -308,24 +307,26 @@ impl Reader<'_> {
     }
 
     fn map(&mut self) -> std::result::Result<Option<PhotonMap>, Failure> {
-        if self.u8().map_err(|()| None)? == 0 {
+        if self.u8()? == 0 {
             return Ok(None);
         }
         let n = self.count(48)?;
         let mut photons = Vec::with_capacity(n);
         for _ in 0..n {
-            let mut v = || self.vec3().map_err(|()| None);
-            photons.push(Photon { position: v()?, incoming: v()?, power: v()?, normal: v()? });
+            photons.push(Photon {
+                position: self.vec3()?,
+                incoming: self.vec3()?,
+                power: self.vec3()?,
+                normal: self.vec3()?,
+            });
         }
-        let precomputed = match self.u8().map_err(|()| None)? {
+        let precomputed = match self.u8()? {
             0 => None,
             _ => {
                 let n = self.count(40)?;
                 let mut points = Vec::with_capacity(n);
                 for _ in 0..n {
-                    let mut v = || self.vec3().map_err(|()| None);
-                    let (p, normal, irradiance) = (v()?, v()?, v()?);
-                    points.push((p, normal, irradiance, self.f32().map_err(|()| None)?));
+                    points.push((self.vec3()?, self.vec3()?, self.vec3()?, self.f32()?));
                 }
                 Some(points)
             }
