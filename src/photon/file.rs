@@ -208,7 +208,7 @@ impl Writer {
             Some(points) => {
                 self.0.push(1);
                 self.u64(points.len() as u64);
-                for &(position, normal, irradiance, r2) in points {
+                for (position, normal, irradiance, r2) in points {
                     for v in [position, normal, irradiance] {
                         self.vec3(v);
                     }
@@ -302,7 +302,7 @@ impl Reader<'_> {
         if self.at != self.bytes.len() {
             return Err(Some(format!("{} bytes follow the maps: corrupted", self.bytes.len() - self.at)));
         }
-        let for_gathering = global.as_ref().is_some_and(|m| m.precomputed_points().is_some());
+        let for_gathering = global.as_ref().is_some_and(PhotonMap::has_precomputed);
         Ok(PhotonMaps { global, caustic, for_gathering, stats })
     }
 

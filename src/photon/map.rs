@@ -7,6 +7,7 @@ use std::num::NonZero;
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
+use super::nearest::{Found, PointTree};
 pub use crate::config::Estimate;
 use crate::material::Material;
 
@@ -50,18 +51,17 @@ pub struct PhotonMap {
 /// Irradiance estimated ahead of time at a subset of photon positions
 /// (Christensen 1999), so final gathering needs only a short nearest lookup.
 pub(crate) struct Precomputed {
-    /// Per chosen photon: position, normal, irradiance, and the squared
-    /// radius of the disc the estimate gathered over (where it holds).
-    points: Vec<(Vec3, Vec3, Vec3, f32)>,
-    tree: ImmutableKdTree<f32, 3>,
+    /// Per chosen photon's position: its normal, irradiance, and the
+    /// squared radius of the disc the estimate gathered over (where it holds).
+    tree: PointTree<(Vec3, Vec3, f32)>,
 }
 
 impl Precomputed {
     /// The records and their kd-tree (at least one record).
     pub(crate) fn new(points: Vec<(Vec3, Vec3, Vec3, f32)>) -> Precomputed {
-        let positions: Vec<[f32; 3]> = points.iter().map(|p| p.0.to_array()).collect();
-        let tree = ImmutableKdTree::new_from_slice(&positions).expect("fewer than 2^32 photons");
-        Precomputed { points, tree }
+        let positions: Vec<Vec3> = points.iter().map(|p| p.0).collect();
+        let values: Vec<(Vec3, Vec3, f32)> = points.iter().map(|p| (p.1, p.2, p.3)).collect();
+        Precomputed { tree: PointTree::new(&positions, &values) }
     }
 }
 
@@ -80,27 +80,45 @@ impl PhotonMap {
 
     /// Estimates irradiance at every `stride`-th photon (in parallel) and
     /// keeps it for [`PhotonMap::precomputed_radiance`].
+    ///
+    /// The estimates are made in the order of a Morton curve through the
+    /// points, so that consecutive queries walk the same part of the
+    /// kd-tree and the same photons while they are in cache; each result
+    /// goes back to its photon's place, so the records, and the images, do
+    /// not depend on that order.
     pub fn precompute_irradiance(&mut self, stride: usize, estimate: &Estimate) {
         use rayon::prelude::*;
-        let points: Vec<(Vec3, Vec3, Vec3, f32)> = self
-            .photons
-            .par_iter()
-            .step_by(stride.max(1))
-            .map(|p| {
-                let (irradiance, r2) = self.irradiance_over(p.position, p.normal, estimate);
-                (p.position, p.normal, irradiance, r2)
-            })
-            .collect();
-        if points.is_empty() {
+        let chosen: Vec<&Photon> = self.photons.iter().step_by(stride.max(1)).collect();
+        if chosen.is_empty() {
             return;
         }
+        let order = morton_order(&chosen.iter().map(|p| p.position).collect::<Vec<_>>());
+        let mut estimates: Vec<(usize, Vec3, f32)> = order
+            .par_iter()
+            .map(|&i| {
+                let p = chosen[i];
+                let (irradiance, r2) = self.irradiance_over(p.position, p.normal, estimate);
+                (i, irradiance, r2)
+            })
+            .collect();
+        estimates.par_sort_unstable_by_key(|e| e.0);
+        let points = estimates
+            .into_iter()
+            .map(|(i, irradiance, r2)| (chosen[i].position, chosen[i].normal, irradiance, r2))
+            .collect();
         self.precomputed = Some(Precomputed::new(points));
     }
 
     /// The precomputed irradiance records (position, normal, irradiance,
     /// squared radius), if any: what a saved map stores.
-    pub(crate) fn precomputed_points(&self) -> Option<&[(Vec3, Vec3, Vec3, f32)]> {
-        self.precomputed.as_ref().map(|p| p.points.as_slice())
+    pub(crate) fn precomputed_points(&self) -> Option<Vec<(Vec3, Vec3, Vec3, f32)>> {
+        let pre = self.precomputed.as_ref()?;
+        Some(pre.tree.in_given_order().into_iter().map(|(p, (n, e, r2))| (p, n, e, r2)).collect())
+    }
+
+    /// Whether irradiance was precomputed (for final gathering).
+    pub(crate) fn has_precomputed(&self) -> bool {
+        self.precomputed.is_some()
     }
 
     /// Sets the precomputed irradiance (of a loaded map).
@@ -118,24 +136,20 @@ impl PhotonMap {
             return self.radiance(p, n, n, material, estimate);
         };
         let to_radiance = |irradiance: Vec3| material.diffuse * std::f32::consts::FRAC_1_PI * irradiance;
+        let covers = |found: &&Found| {
+            let (normal, _, r2) = *pre.tree.value(found);
+            found.distance2 <= r2 && normal.dot(n) > 0.9
+        };
         // Usually the nearest point lies on the same surface; only if not,
         // look a little further.
-        let nearest = pre.tree.query(&p.to_array()).nearest_one::<SquaredEuclidean<f32>>().execute();
-        let (_, normal, irradiance, r2) = pre.points[nearest.item as usize];
-        if nearest.distance <= r2 && normal.dot(n) > 0.9 {
-            return to_radiance(irradiance);
-        }
-        let near = pre
-            .tree
-            .query(&p.to_array())
-            .nearest_n::<SquaredEuclidean<f32>>(NonZero::new(8).expect("8 > 0"))
-            .within(estimate.max_radius * estimate.max_radius)
-            .execute();
-        for candidate in near {
-            let (_, normal, irradiance, r2) = pre.points[candidate.item as usize];
-            if candidate.distance <= r2 && normal.dot(n) > 0.9 {
-                return to_radiance(irradiance);
-            }
+        let max_distance2 = estimate.max_radius * estimate.max_radius;
+        let nearest = pre.tree.nearest::<1>(p, f32::INFINITY);
+        let found = match nearest.as_slice().iter().find(covers) {
+            Some(&found) => Some(found),
+            None => pre.tree.nearest::<8>(p, max_distance2).as_slice().iter().find(covers).copied(),
+        };
+        if let Some(found) = found {
+            return to_radiance(pre.tree.value(&found).1);
         }
         self.radiance(p, n, n, &Material { diffuse: material.diffuse, ..Material::default() }, estimate)
     }
@@ -228,6 +242,29 @@ impl PhotonMap {
             self.radiance_over(p, n, n, &lambertian, &Estimate { cone_filter: None, ..*estimate });
         (radiance * std::f32::consts::PI, r2)
     }
+}
+
+/// The indices of `points` in the order of a Morton (Z-order) curve through
+/// their bounding box, 10 bits per axis: points close in space come close in
+/// the order. Ties keep their index order.
+fn morton_order(points: &[Vec3]) -> Vec<usize> {
+    let (lo, hi) =
+        points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let scale = 1023.0 / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
+    // Spreads the 10 low bits of `x` to every third bit.
+    fn spread(x: u32) -> u32 {
+        let x = (x | (x << 16)) & 0x0300_00ff;
+        let x = (x | (x << 8)) & 0x0300_f00f;
+        let x = (x | (x << 4)) & 0x030c_30c3;
+        (x | (x << 2)) & 0x0924_9249
+    }
+    let code = |p: Vec3| {
+        let c = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0)).as_uvec3();
+        spread(c.x) | (spread(c.y) << 1) | (spread(c.z) << 2)
+    };
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by_key(|&i| code(points[i]));
+    order
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@
 
 pub mod file;
 pub mod map;
+pub mod nearest;
 
 use std::time::Instant;
 

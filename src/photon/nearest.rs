@@ -1,0 +1,289 @@
+//! Nearest-point search for the precomputed irradiance that final gathering
+//! looks up at every gather hit: the hottest query of a photon-mapped render.
+//!
+//! A kd-tree specialised for that one question, "which of a few nearest
+//! points", in a small fixed-size answer on the stack: balanced median splits
+//! on the widest axis, the split planes in an implicit binary tree (node `i`
+//! has children `2i + 1` and `2i + 2`, its points are a range found by
+//! halving), and the points themselves in tree order so a leaf is a few
+//! contiguous cache lines. It answers in about half the time of kiddo's
+//! general `nearest_one` on the same points (BENCHMARKS.md, issue 17); the
+//! photon maps' k-nearest estimates stay with kiddo.
+//!
+//! Ties in distance go to the point given first, so answers never depend on
+//! how the tree happened to split.
+
+use glam::Vec3;
+
+/// At most this many points in a leaf.
+const LEAF: usize = 8;
+
+/// Points in a kd-tree for nearest-point queries, each with a value `T`
+/// kept beside it (in tree order, so reading the value of a point just found
+/// touches memory near it).
+pub struct PointTree<T> {
+    /// The points, in tree order.
+    points: Vec<Vec3>,
+    /// For each point in tree order, its index in the order given.
+    items: Vec<u32>,
+    /// For each point in tree order, its value.
+    values: Vec<T>,
+    /// Per inner node (implicit numbering): the split value and its axis.
+    splits: Vec<(f32, u8)>,
+}
+
+/// One point found: its squared distance from the query, its index in the
+/// order given, and its place in the tree (for [`PointTree::value`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Found {
+    /// Squared distance from the query.
+    pub distance2: f32,
+    /// Index of the point in the order given to [`PointTree::new`].
+    pub index: u32,
+    /// Where the point sits in the tree.
+    pub slot: u32,
+}
+
+/// Up to `K` of the points nearest a query, nearest first.
+#[derive(Debug, Clone, Copy)]
+pub struct Nearest<const K: usize> {
+    found: [Found; K],
+    len: usize,
+}
+
+impl<const K: usize> Nearest<K> {
+    fn new() -> Self {
+        Nearest { found: [Found { distance2: f32::INFINITY, index: u32::MAX, slot: u32::MAX }; K], len: 0 }
+    }
+
+    /// The squared distance a point must beat to enter.
+    fn bound(&self, max_distance2: f32) -> f32 {
+        if self.len == K {
+            self.found[K - 1].distance2
+        } else {
+            max_distance2
+        }
+    }
+
+    /// Inserts in (distance, index) order when it belongs among the K.
+    fn offer(&mut self, entry: Found) {
+        let before = |a: Found, b: Found| {
+            a.distance2 < b.distance2 || (a.distance2 == b.distance2 && a.index < b.index)
+        };
+        if self.len == K && !before(entry, self.found[K - 1]) {
+            return;
+        }
+        let mut i = self.len.min(K - 1);
+        while i > 0 && before(entry, self.found[i - 1]) {
+            self.found[i] = self.found[i - 1];
+            i -= 1;
+        }
+        self.found[i] = entry;
+        self.len = (self.len + 1).min(K);
+    }
+
+    /// The points found, nearest first.
+    pub fn as_slice(&self) -> &[Found] {
+        &self.found[..self.len]
+    }
+}
+
+impl<T: Copy> PointTree<T> {
+    /// Builds the tree over `points` with their `values` (as many; fewer
+    /// than 2^32), serially: it depends only on the points and their order.
+    pub fn new(points: &[Vec3], values: &[T]) -> PointTree<T> {
+        assert_eq!(points.len(), values.len(), "a value per point");
+        assert!(points.len() < u32::MAX as usize, "fewer than 2^32 points");
+        let mut items: Vec<u32> = (0..points.len() as u32).collect();
+        let mut splits = vec![(0.0, 0); inner_nodes(points.len())];
+        split(points, &mut items, 0, &mut splits);
+        PointTree {
+            points: items.iter().map(|&i| points[i as usize]).collect(),
+            values: items.iter().map(|&i| values[i as usize]).collect(),
+            items,
+            splits,
+        }
+    }
+
+    /// Every point and its value, in the order given to [`PointTree::new`].
+    pub fn in_given_order(&self) -> Vec<(Vec3, T)> {
+        let mut slots = vec![0; self.items.len()];
+        for (slot, &item) in self.items.iter().enumerate() {
+            slots[item as usize] = slot;
+        }
+        slots.into_iter().map(|slot| (self.points[slot], self.values[slot])).collect()
+    }
+
+    /// The value of a point found.
+    pub fn value(&self, found: &Found) -> &T {
+        &self.values[found.slot as usize]
+    }
+
+    /// The number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether there are no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// The up to `K` points nearest `q` within squared distance
+    /// `max_distance2` (inclusive), nearest first; ties to the smaller index.
+    pub fn nearest<const K: usize>(&self, q: Vec3, max_distance2: f32) -> Nearest<K> {
+        let mut found = Nearest::<K>::new();
+        if self.points.is_empty() || K == 0 {
+            return found;
+        }
+        // Nodes still to visit: (node, first point, end, squared distance
+        // from q to the node's side of its parent's split). The tree is
+        // balanced, so its depth (and this stack) stays below 2 log2 n.
+        let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
+        stack[0] = (0, 0, self.points.len() as u32, 0.0);
+        let mut depth = 1;
+        while depth > 0 {
+            depth -= 1;
+            let (mut node, mut lo, mut hi, d2) = stack[depth];
+            if d2 > found.bound(max_distance2) {
+                continue;
+            }
+            while (hi - lo) as usize > LEAF {
+                let mid = lo + (hi - lo) / 2;
+                let (value, axis) = self.splits[node as usize];
+                let diff = q[axis as usize] - value;
+                let (left, right) = ((2 * node + 1, lo, mid), (2 * node + 2, mid, hi));
+                let (near, far) = if diff < 0.0 { (left, right) } else { (right, left) };
+                if diff * diff <= found.bound(max_distance2) {
+                    stack[depth] = (far.0, far.1, far.2, diff * diff);
+                    depth += 1;
+                }
+                (node, lo, hi) = near;
+            }
+            for i in lo as usize..hi as usize {
+                let d2 = (self.points[i] - q).length_squared();
+                if d2 <= found.bound(max_distance2) {
+                    found.offer(Found { distance2: d2, index: self.items[i], slot: i as u32 });
+                }
+            }
+        }
+        found
+    }
+}
+
+/// The number of inner nodes of the implicit tree over `n` points: the
+/// largest node number used, plus one.
+fn inner_nodes(n: usize) -> usize {
+    fn largest(node: usize, n: usize) -> usize {
+        if n <= LEAF {
+            return 0;
+        }
+        let half = n / 2;
+        (node + 1).max(largest(2 * node + 1, half)).max(largest(2 * node + 2, n - half))
+    }
+    largest(0, n)
+}
+
+/// Splits `items` (indices into `points`) at the median of their widest
+/// axis, recording the split at `node`, and recurses into both halves.
+fn split(points: &[Vec3], items: &mut [u32], node: usize, splits: &mut [(f32, u8)]) {
+    if items.len() <= LEAF {
+        return;
+    }
+    let (lo, hi) = items.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &i| {
+        (lo.min(points[i as usize]), hi.max(points[i as usize]))
+    });
+    let extent = hi - lo;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let mid = items.len() / 2;
+    let key = |&i: &u32| (points[i as usize][axis], i);
+    items.select_nth_unstable_by(mid, |a, b| key(a).0.total_cmp(&key(b).0).then(a.cmp(b)));
+    splits[node] = (points[items[mid] as usize][axis], axis as u8);
+    let (left, right) = items.split_at_mut(mid);
+    split(points, left, 2 * node + 1, splits);
+    split(points, right, 2 * node + 2, splits);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    /// The `k` nearest by brute force: (squared distance, index), ties by index.
+    fn brute(points: &[Vec3], q: Vec3, k: usize, max_d2: f32) -> Vec<(f32, u32)> {
+        let mut all: Vec<(f32, u32)> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| ((*p - q).length_squared(), i as u32))
+            .filter(|&(d2, _)| d2 <= max_d2)
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        all.truncate(k);
+        all
+    }
+
+    #[test]
+    fn finds_what_brute_force_finds() {
+        let mut rng = Rng::new(5, 1);
+        for n in [0usize, 1, 7, 8, 9, 17, 100, 3000] {
+            // Points on the faces of a box, many sharing a coordinate exactly
+            // (as photons on a floor do), and some exact duplicates.
+            let mut points: Vec<Vec3> = (0..n)
+                .map(|i| {
+                    let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+                    match i % 3 {
+                        0 => Vec3::new(p.x, 0.0, p.z),
+                        1 => Vec3::new(1.0, p.y, p.z),
+                        _ => p,
+                    }
+                })
+                .collect();
+            if n > 10 {
+                points[n - 1] = points[3];
+                points[n - 2] = points[3];
+            }
+            let tree = PointTree::new(&points, &points);
+            assert_eq!(tree.len(), n);
+            let given: Vec<(Vec3, Vec3)> = points.iter().map(|&p| (p, p)).collect();
+            assert_eq!(tree.in_given_order(), given);
+            for j in 0..200 {
+                let q = if j % 4 == 0 && n > 0 {
+                    points[j % n]
+                } else {
+                    Vec3::new(rng.uniform() * 1.2 - 0.1, rng.uniform() * 0.2, rng.uniform())
+                };
+                let max_d2 = if j % 2 == 0 { f32::INFINITY } else { 0.01 };
+                for k in [1, 8] {
+                    let found: Vec<(f32, u32)> = match k {
+                        1 => tree
+                            .nearest::<1>(q, max_d2)
+                            .as_slice()
+                            .iter()
+                            .map(|f| (f.distance2, f.index))
+                            .collect(),
+                        _ => tree
+                            .nearest::<8>(q, max_d2)
+                            .as_slice()
+                            .iter()
+                            .map(|f| (f.distance2, f.index))
+                            .collect(),
+                    };
+                    assert_eq!(found, brute(&points, q, k, max_d2), "n {n} q {q} k {k}");
+                    // Each point found carries its own value.
+                    for f in match k {
+                        1 => tree.nearest::<1>(q, max_d2).as_slice().to_vec(),
+                        _ => tree.nearest::<8>(q, max_d2).as_slice().to_vec(),
+                    } {
+                        assert_eq!(*tree.value(&f), points[f.index as usize]);
+                    }
+                }
+            }
+        }
+    }
+}
