@@ -1,19 +1,21 @@
 //! The native intersector: a bounding volume hierarchy in pure Rust.
 //!
 //! - Build: binned surface area heuristic (SAH) over triangle centroids,
-//!   12 bins on each axis, subtrees built in parallel with rayon.
-//! - Layout: nodes flattened depth-first into 32-byte records (the first
-//!   child follows its parent; the second is found by offset), triangles
-//!   copied into leaf order with their vertices inline.
-//! - Traversal: front-to-back by the ray's direction sign on the split axis;
-//!   slab tests widened by a floating-point error bound so no ray slips past
-//!   a box it touches.
+//!   12 bins on each axis, subtrees built in parallel with rayon; the binary
+//!   tree is then collapsed into nodes of up to four children (like Embree's
+//!   BVH4), opening the child of largest area first.
+//! - Layout: 128-byte nodes holding their four children's boxes side by
+//!   side, so one ray tests all four in SIMD lanes; nodes depth-first,
+//!   triangles copied into leaf order with their vertices inline.
+//! - Traversal: the children a ray enters, nearest first (by entry
+//!   distance); slab tests widened by a floating-point error bound so no ray
+//!   slips past a box it touches.
 //! - Triangles: the watertight test of Woop, Benthin and Wald (JCGT 2013),
 //!   so rays through shared edges and vertices of a closed mesh never leak.
 //!
 //! Hits are reported exactly as Embree reports them (see [`Hit`]).
 
-use glam::{Mat3A, Vec3, Vec3A};
+use glam::{BVec4A, Mat3A, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::embree::TriangleView;
@@ -29,19 +31,24 @@ const PARALLEL_BUILD: usize = 16 * 1024;
 /// `gamma(3)` of Pharr et al.: the relative error bound of three rounded operations.
 const GAMMA3: f32 = 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// A flattened BVH node (32 bytes).
+/// Children per node.
+const WIDTH: usize = 4;
+
+/// A node of up to four children (128 bytes): their boxes as one lane per
+/// child, and for each child either an interior node or a leaf's triangles.
 #[derive(Debug, Clone, Copy)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 struct Node {
-    min: [f32; 3],
-    /// Leaf: index of the first triangle. Interior: index of the second child.
-    offset: u32,
-    max: [f32; 3],
-    /// Triangles in a leaf; 0 for an interior node.
-    count: u16,
-    /// Split axis of an interior node.
-    axis: u8,
-    _pad: u8,
+    /// Per axis, the children's lower bounds.
+    min: [Vec4; 3],
+    /// Per axis, the children's upper bounds.
+    max: [Vec4; 3],
+    /// Per child: an interior child's node index, or a leaf's first triangle.
+    child: [u32; WIDTH],
+    /// Per child: triangles in a leaf, 0 for an interior node.
+    count: [u16; WIDTH],
+    /// Children in use (the first ones); the other lanes are never entered.
+    children: u8,
 }
 
 /// A triangle in leaf order, vertices inline (44 bytes).
@@ -60,10 +67,18 @@ struct BuildItem {
     triangle: u32,
 }
 
-/// The tree before flattening.
+/// The binary tree before it is collapsed into nodes of four.
 enum BuildNode {
     Leaf { bounds: Bounds, first: usize, count: usize },
-    Interior { bounds: Bounds, axis: u8, children: Box<[BuildNode; 2]> },
+    Interior { bounds: Bounds, children: Box<[BuildNode; 2]> },
+}
+
+impl BuildNode {
+    fn bounds(&self) -> Bounds {
+        match self {
+            BuildNode::Leaf { bounds, .. } | BuildNode::Interior { bounds, .. } => *bounds,
+        }
+    }
 }
 
 /// Memory and shape of a built BVH, for benchmarks and `info`.
@@ -113,8 +128,8 @@ impl Bvh {
         }
         let root = build_node(&mut items, 0);
         let triangles = items.iter().map(|item| source[item.triangle as usize]).collect();
-        let mut nodes = Vec::with_capacity(2 * source.len() / MAX_LEAF + 1);
-        flatten(&root, &mut nodes);
+        let mut nodes = Vec::with_capacity(source.len() / MAX_LEAF + 1);
+        collapse(&root, &mut nodes);
         Bvh { nodes, triangles }
     }
 
@@ -122,11 +137,10 @@ impl Bvh {
     pub fn stats(&self) -> BvhStats {
         fn depth(nodes: &[Node], i: usize) -> usize {
             let n = &nodes[i];
-            if n.count > 0 {
-                1
-            } else {
-                1 + depth(nodes, i + 1).max(depth(nodes, n.offset as usize))
-            }
+            (0..n.children as usize)
+                .map(|c| if n.count[c] > 0 { 1 } else { depth(nodes, n.child[c] as usize) })
+                .max()
+                .map_or(1, |d| 1 + d)
         }
         BvhStats {
             nodes: self.nodes.len(),
@@ -141,59 +155,78 @@ impl Bvh {
     /// leaf whose box the ray enters before `t_max`. `visit` returns the new
     /// `t_max` (smaller after a hit) or `None` to stop the walk at once.
     ///
-    /// Both children's boxes are tested at their parent; the walk descends
-    /// into the nearer one and stacks the other with its entry distance, so
-    /// subtrees behind a hit found meanwhile are skipped when popped.
-    fn traverse<'s>(&'s self, ray: &Ray, mut visit: impl FnMut(&'s Triangle, f32) -> Option<f32>) {
-        let Some(root) = self.nodes.first() else { return };
-        let slab = SlabRay::new(ray);
-        let mut t_max = ray.t_max;
-        if slab.enter(root, t_max).is_none() {
+    /// A node's four boxes are tested at once; the children entered go on
+    /// the stack farthest first with their entry distances, so the nearest
+    /// is walked next and subtrees behind a hit found meanwhile are skipped
+    /// when popped.
+    fn traverse<'s>(&'s self, ray: &Ray, visit: impl FnMut(&'s Triangle, f32) -> Option<f32>) {
+        if self.nodes.is_empty() {
             return;
         }
-        let mut stack = [(0u32, 0f32); 64];
-        let mut top = 0;
-        let mut index = 0usize;
+        thread_local! {
+            // Each thread's traversal stack, kept between rays: no limit on
+            // the tree's depth, and nothing to clear or allocate per ray.
+            static STACK: std::cell::RefCell<Vec<(u32, u16, f32)>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
+        STACK.with_borrow_mut(|stack| {
+            stack.clear();
+            self.walk(ray, stack, visit);
+        });
+    }
+
+    /// [`Bvh::traverse`] with a stack of pending children: (node index or
+    /// first triangle, triangles in a leaf or 0, entry distance).
+    fn walk<'s>(
+        &'s self,
+        ray: &Ray,
+        stack: &mut Vec<(u32, u16, f32)>,
+        mut visit: impl FnMut(&'s Triangle, f32) -> Option<f32>,
+    ) {
+        let slab = SlabRay::new(ray);
+        let mut t_max = ray.t_max;
+        let mut current = (0u32, 0u16);
         loop {
-            let node = &self.nodes[index];
-            if node.count > 0 {
-                let first = node.offset as usize;
-                for triangle in &self.triangles[first..first + node.count as usize] {
+            let (child, count) = current;
+            if count > 0 {
+                let first = child as usize;
+                for triangle in &self.triangles[first..first + count as usize] {
                     match visit(triangle, t_max) {
                         Some(t) => t_max = t,
                         None => return,
                     }
                 }
             } else {
-                let (a, b) = (index + 1, node.offset as usize);
-                match (slab.enter(&self.nodes[a], t_max), slab.enter(&self.nodes[b], t_max)) {
-                    (Some(ta), Some(tb)) => {
-                        let ((near, _), far) = if ta <= tb { ((a, ta), (b, tb)) } else { ((b, tb), (a, ta)) };
-                        stack[top] = (far.0 as u32, far.1);
-                        top += 1;
-                        index = near;
-                        continue;
+                let node = &self.nodes[child as usize];
+                let (entered, enter) = slab.enter(node, t_max);
+                // The entered children, nearest first (at most four: insertion sort).
+                let mut order = [(0usize, 0f32); WIDTH];
+                let mut n = 0;
+                for lane in 0..node.children as usize {
+                    if entered.test(lane) {
+                        let mut i = n;
+                        while i > 0 && order[i - 1].1 > enter[lane] {
+                            order[i] = order[i - 1];
+                            i -= 1;
+                        }
+                        order[i] = (lane, enter[lane]);
+                        n += 1;
                     }
-                    (Some(_), None) => {
-                        index = a;
-                        continue;
+                }
+                if n > 0 {
+                    // Walk the nearest now; stack the others, farthest first.
+                    for &(lane, t) in order[1..n].iter().rev() {
+                        stack.push((node.child[lane], node.count[lane], t));
                     }
-                    (None, Some(_)) => {
-                        index = b;
-                        continue;
-                    }
-                    (None, None) => {}
+                    let lane = order[0].0;
+                    current = (node.child[lane], node.count[lane]);
+                    continue;
                 }
             }
             // Pop the nearest pending subtree still in front of the closest hit.
             loop {
-                if top == 0 {
-                    return;
-                }
-                top -= 1;
-                let (next, entry) = stack[top];
+                let Some((next, count, entry)) = stack.pop() else { return };
                 if entry <= t_max {
-                    index = next as usize;
+                    current = (next, count);
                     break;
                 }
             }
@@ -240,44 +273,54 @@ impl Intersector for Bvh {
     }
 }
 
-/// The per-ray part of the box test, in SIMD lanes.
+/// The per-ray part of the box test of a node's four children, one child
+/// per SIMD lane.
 ///
 /// The slab distances are `(bound - origin) * inv`, whose rounding the
 /// `gamma(3)` widening covers. (The cheaper `bound * inv - origin * inv`
 /// cancels catastrophically when a bound is close to the origin's coordinate
 /// and once let a ray aimed at a vertex of the bunny slip past its leaf's box.)
 struct SlabRay {
-    inv: Vec3A,
-    /// Lanes where the direction is zero (so `inv` is infinite).
-    parallel: glam::BVec3A,
-    origin: Vec3A,
+    inv: [Vec4; 3],
+    /// Axes where the direction is zero (so `inv` is infinite).
+    parallel: [bool; 3],
+    origin: [Vec4; 3],
 }
 
 impl SlabRay {
     fn new(ray: &Ray) -> SlabRay {
-        let inv = Vec3A::from(ray.dir).recip();
-        SlabRay { inv, parallel: !inv.is_finite_mask(), origin: Vec3A::from(ray.origin) }
+        let inv = ray.dir.recip();
+        SlabRay {
+            inv: [0, 1, 2].map(|a| Vec4::splat(inv[a])),
+            parallel: [0, 1, 2].map(|a| !inv[a].is_finite()),
+            origin: [0, 1, 2].map(|a| Vec4::splat(ray.origin[a])),
+        }
     }
 
-    /// Where the ray enters the node's box, if it does between 0 and `t_max`.
-    /// The far distance is widened by `1 + 2 gamma(3)` to cover rounding
-    /// (Pharr et al.). On an axis the ray is parallel to, the slab either
-    /// contains the origin (no limit, even when the origin lies exactly in a
-    /// face's plane, where `0 * inf` would be NaN) or the ray misses.
+    /// Which of the node's children the ray enters between 0 and `t_max`,
+    /// and where. The far distance is widened by `1 + 2 gamma(3)` to cover
+    /// rounding (Pharr et al.). On an axis the ray is parallel to, a slab
+    /// either contains the origin (no limit, even when the origin lies
+    /// exactly in a face's plane, where `0 * inf` would be NaN) or the ray
+    /// misses it.
     #[inline]
-    fn enter(&self, node: &Node, t_max: f32) -> Option<f32> {
-        let (min, max) = (Vec3A::from_array(node.min), Vec3A::from_array(node.max));
-        let t0 = (min - self.origin) * self.inv;
-        let t1 = (max - self.origin) * self.inv;
-        let inside = self.origin.cmpge(min) & self.origin.cmple(max);
-        let near = Vec3A::select(self.parallel, Vec3A::NEG_INFINITY, t0.min(t1));
-        let far = Vec3A::select(self.parallel, Vec3A::INFINITY, t0.max(t1));
-        if (self.parallel & !inside).any() {
-            return None;
+    fn enter(&self, node: &Node, t_max: f32) -> (BVec4A, Vec4) {
+        let lanes = Vec4::new(0.0, 1.0, 2.0, 3.0);
+        let mut alive = lanes.cmplt(Vec4::splat(node.children as f32));
+        let (mut near, mut far) = (Vec4::ZERO, Vec4::splat(t_max));
+        for axis in 0..3 {
+            let (min, max, origin) = (node.min[axis], node.max[axis], self.origin[axis]);
+            if self.parallel[axis] {
+                alive &= origin.cmpge(min) & origin.cmple(max);
+            } else {
+                let t0 = (min - origin) * self.inv[axis];
+                let t1 = (max - origin) * self.inv[axis];
+                near = near.max(t0.min(t1));
+                far = far.min(t0.max(t1));
+            }
         }
-        let enter = near.max_element().max(0.0);
-        let exit = far.min_element().min(t_max) * (1.0 + 2.0 * GAMMA3);
-        (enter <= exit).then_some(enter)
+        let far = far * (1.0 + 2.0 * GAMMA3);
+        (alive & near.cmple(far), near)
     }
 }
 
@@ -404,7 +447,7 @@ fn build_node(items: &mut [BuildItem], first: usize) -> BuildNode {
     let leaf_cost = items.len() as f32;
     let Some((cost, axis, split)) = best else {
         // All centroids coincide: no split separates them.
-        return if items.len() <= MAX_LEAF { leaf() } else { median_split(items, first, bounds, 0) };
+        return if items.len() <= MAX_LEAF { leaf() } else { median_split(items, first, bounds) };
     };
     let split_cost = 1.0 + cost / bounds.half_area().max(f32::MIN_POSITIVE);
     if items.len() <= MAX_LEAF && leaf_cost <= split_cost {
@@ -421,15 +464,15 @@ fn build_node(items: &mut [BuildItem], first: usize) -> BuildNode {
     } else {
         [build_node(left, first), build_node(right, first + mid)]
     };
-    BuildNode::Interior { bounds, axis: axis as u8, children: Box::new(children) }
+    BuildNode::Interior { bounds, children: Box::new(children) }
 }
 
 /// Splits items with identical centroids into halves by count.
-fn median_split(items: &mut [BuildItem], first: usize, bounds: Bounds, axis: u8) -> BuildNode {
+fn median_split(items: &mut [BuildItem], first: usize, bounds: Bounds) -> BuildNode {
     let mid = items.len() / 2;
     let (left, right) = items.split_at_mut(mid);
     let children = [build_node(left, first), build_node(right, first + mid)];
-    BuildNode::Interior { bounds, axis, children: Box::new(children) }
+    BuildNode::Interior { bounds, children: Box::new(children) }
 }
 
 /// Moves the items for which `goes_left` holds to the front; returns how many.
@@ -444,25 +487,47 @@ fn partition(items: &mut [BuildItem], goes_left: impl Fn(&BuildItem) -> bool) ->
     mid
 }
 
-/// Appends `node` and its subtree depth-first; returns its index.
-fn flatten(node: &BuildNode, nodes: &mut Vec<Node>) -> usize {
-    let index = nodes.len();
-    let record = |bounds: &Bounds, offset: usize, count: usize, axis: u8| Node {
-        min: bounds.min.to_array(),
-        offset: offset as u32,
-        max: bounds.max.to_array(),
-        count: count as u16,
-        axis,
-        _pad: 0,
+/// Appends the node of up to four children that stands for `node` (a leaf
+/// root becomes a node of one child), then their subtrees depth-first;
+/// returns its index. The children are `node`'s two, with the interior one
+/// of largest area replaced by its own two while fewer than four.
+fn collapse(node: &BuildNode, nodes: &mut Vec<Node>) -> usize {
+    let mut children: Vec<&BuildNode> = match node {
+        BuildNode::Leaf { .. } => vec![node],
+        BuildNode::Interior { children, .. } => vec![&children[0], &children[1]],
     };
-    match node {
-        BuildNode::Leaf { bounds, first, count } => nodes.push(record(bounds, *first, *count, 0)),
-        BuildNode::Interior { bounds, axis, children } => {
-            nodes.push(record(bounds, 0, 0, *axis));
-            flatten(&children[0], nodes);
-            let second = flatten(&children[1], nodes);
-            nodes[index].offset = second as u32;
+    while children.len() < WIDTH {
+        let largest = (0..children.len())
+            .filter(|&i| matches!(children[i], BuildNode::Interior { .. }))
+            .max_by(|&a, &b| children[a].bounds().half_area().total_cmp(&children[b].bounds().half_area()));
+        let Some(i) = largest else { break };
+        let BuildNode::Interior { children: two, .. } = children[i] else { unreachable!("filtered") };
+        children[i] = &two[0];
+        children.insert(i + 1, &two[1]);
+    }
+    let index = nodes.len();
+    let mut record = Node {
+        min: [Vec4::INFINITY; 3],
+        max: [Vec4::NEG_INFINITY; 3],
+        child: [0; WIDTH],
+        count: [0; WIDTH],
+        children: children.len() as u8,
+    };
+    for (lane, child) in children.iter().enumerate() {
+        let b = child.bounds();
+        for axis in 0..3 {
+            record.min[axis][lane] = b.min[axis];
+            record.max[axis][lane] = b.max[axis];
         }
+    }
+    nodes.push(record);
+    for (lane, child) in children.iter().enumerate() {
+        let (target, count) = match child {
+            BuildNode::Leaf { first, count, .. } => (*first, *count as u16),
+            BuildNode::Interior { .. } => (collapse(child, nodes), 0),
+        };
+        nodes[index].child[lane] = target as u32;
+        nodes[index].count[lane] = count;
     }
     index
 }
@@ -472,8 +537,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn nodes_are_32_bytes() {
-        assert_eq!(std::mem::size_of::<Node>(), 32);
+    fn nodes_are_two_cache_lines() {
+        assert_eq!(std::mem::size_of::<Node>(), 128);
     }
 
     #[test]
@@ -539,17 +604,33 @@ mod tests {
 
     #[test]
     fn rays_lying_in_a_box_face_plane_are_inside_the_slab() {
-        let node = Node { min: [0.0, 0.0, 2.0], offset: 0, max: [1.0, 1.0, 3.0], count: 1, axis: 0, _pad: 0 };
+        // One child, the box [0, 1] x [0, 1] x [2, 3], in the first lane;
+        // the other lanes are unused and must never be entered.
+        let mut node = Node {
+            min: [Vec4::INFINITY; 3],
+            max: [Vec4::NEG_INFINITY; 3],
+            child: [0; WIDTH],
+            count: [1, 0, 0, 0],
+            children: 1,
+        };
+        for (axis, (lo, hi)) in [(0.0, 1.0), (0.0, 1.0), (2.0, 3.0)].into_iter().enumerate() {
+            node.min[axis][0] = lo;
+            node.max[axis][0] = hi;
+        }
+        let first_lane = |ray: &Ray| {
+            let (entered, enter) = SlabRay::new(ray).enter(&node, ray.t_max);
+            assert!(!(entered.test(1) || entered.test(2) || entered.test(3)), "an unused lane was entered");
+            entered.test(0).then_some(enter[0])
+        };
         let dir = Vec3::new(1.0, 0.5, 0.0);
         for z in [2.0, 2.5, 3.0] {
             // Parallel to the z faces, in or between their planes.
-            let ray = Ray::new(Vec3::new(-1.0, 0.0, z), dir);
-            assert_eq!(SlabRay::new(&ray).enter(&node, f32::INFINITY), Some(1.0), "z = {z}");
+            assert_eq!(first_lane(&Ray::new(Vec3::new(-1.0, 0.0, z), dir)), Some(1.0), "z = {z}");
         }
-        let above = Ray::new(Vec3::new(-1.0, 0.0, 3.5), dir);
-        assert_eq!(SlabRay::new(&above).enter(&node, f32::INFINITY), None);
-        let short = Ray { t_max: 0.5, ..Ray::new(Vec3::new(-1.0, 0.0, 2.0), dir) };
-        assert_eq!(SlabRay::new(&short).enter(&node, short.t_max), None);
+        assert_eq!(first_lane(&Ray::new(Vec3::new(-1.0, 0.0, 3.5), dir)), None);
+        assert_eq!(first_lane(&Ray { t_max: 0.5, ..Ray::new(Vec3::new(-1.0, 0.0, 2.0), dir) }), None);
+        // Starting inside: entered at 0.
+        assert_eq!(first_lane(&Ray::new(Vec3::new(0.5, 0.5, 2.5), -Vec3::ONE)), Some(0.0));
     }
 
     #[test]
