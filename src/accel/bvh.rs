@@ -62,8 +62,8 @@ struct Triangle {
 /// A triangle during the build: its bounds, centroid, and where it came from.
 #[derive(Debug, Clone, Copy)]
 struct BuildItem {
-    bounds: Bounds,
-    centroid: Vec3,
+    bounds: Aabb,
+    centroid: Vec3A,
     triangle: u32,
 }
 
@@ -119,14 +119,15 @@ impl Bvh {
             .par_iter()
             .enumerate()
             .map(|(i, t)| {
-                let bounds = Bounds::EMPTY.grow(t.v[0]).grow(t.v[1]).grow(t.v[2]);
+                let bounds = Aabb::EMPTY.grow(t.v[0].into()).grow(t.v[1].into()).grow(t.v[2].into());
                 BuildItem { bounds, centroid: 0.5 * (bounds.min + bounds.max), triangle: i as u32 }
             })
             .collect();
         if items.is_empty() {
             return Bvh { nodes: Vec::new(), triangles: Vec::new() };
         }
-        let root = build_node(&mut items, 0);
+        let span = Span::of(&items);
+        let root = build_node(&mut items, 0, span);
         let triangles = items.iter().map(|item| source[item.triangle as usize]).collect();
         let mut nodes = Vec::with_capacity(source.len() / MAX_LEAF + 1);
         collapse(&root, &mut nodes);
@@ -398,44 +399,100 @@ impl WatertightRay {
     }
 }
 
-fn build_node(items: &mut [BuildItem], first: usize) -> BuildNode {
-    let bounds = items.iter().fold(Bounds::EMPTY, |b, i| b.union(i.bounds));
+/// A box in SIMD lanes, for the build's many unions.
+#[derive(Debug, Clone, Copy)]
+struct Aabb {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb { min: Vec3A::INFINITY, max: Vec3A::NEG_INFINITY };
+
+    fn grow(self, p: Vec3A) -> Aabb {
+        Aabb { min: self.min.min(p), max: self.max.max(p) }
+    }
+
+    fn union(self, other: Aabb) -> Aabb {
+        Aabb { min: self.min.min(other.min), max: self.max.max(other.max) }
+    }
+
+    fn bounds(self) -> Bounds {
+        Bounds { min: self.min.into(), max: self.max.into() }
+    }
+}
+
+/// What a set of build items spans: the union of their boxes, and the box
+/// of their centroids (which the SAH bins divide).
+#[derive(Debug, Clone, Copy)]
+struct Span {
+    bounds: Aabb,
+    centroids: Aabb,
+}
+
+impl Span {
+    const EMPTY: Span = Span { bounds: Aabb::EMPTY, centroids: Aabb::EMPTY };
+
+    fn add(self, item: &BuildItem) -> Span {
+        Span { bounds: self.bounds.union(item.bounds), centroids: self.centroids.grow(item.centroid) }
+    }
+
+    fn union(self, other: Span) -> Span {
+        Span { bounds: self.bounds.union(other.bounds), centroids: self.centroids.union(other.centroids) }
+    }
+
+    /// The span of `items`, in parallel (unions of boxes are exact, so the
+    /// result does not depend on how the work was split).
+    fn of(items: &[BuildItem]) -> Span {
+        items.par_iter().fold(|| Span::EMPTY, |s, i| s.add(i)).reduce(|| Span::EMPTY, Span::union)
+    }
+}
+
+/// Builds the subtree over `items` (which span `span`), the first of which
+/// is triangle `first` in leaf order.
+///
+/// One pass over the items bins them on all three axes at once, each bin
+/// keeping its items' span, so the chosen split's two sides know their
+/// spans without another pass; a second pass partitions them.
+fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
+    let (bounds, centroids) = (span.bounds.bounds(), span.centroids);
     let leaf = || BuildNode::Leaf { bounds, first, count: items.len() };
     if items.len() == 1 {
         return leaf();
     }
-    let centroids = items.iter().fold(Bounds::EMPTY, |b, i| b.grow(i.centroid));
     let extent = centroids.max - centroids.min;
+    let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), BINS as f32 / extent, Vec3A::ZERO);
+    let bin_of =
+        |c: Vec3A, axis: usize| (((c[axis] - centroids.min[axis]) * scale[axis]) as usize).min(BINS - 1);
+    let mut bins = [[(Span::EMPTY, 0usize); BINS]; 3];
+    for item in items.iter() {
+        for (axis, axis_bins) in bins.iter_mut().enumerate() {
+            let bin = &mut axis_bins[bin_of(item.centroid, axis)];
+            *bin = (bin.0.add(item), bin.1 + 1);
+        }
+    }
 
     // Find the cheapest binned split over all three axes.
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, last bin on the left)
-    for axis in 0..3 {
+    for (axis, bins) in bins.iter().enumerate() {
         if extent[axis] <= 0.0 {
             continue;
         }
-        let scale = BINS as f32 / extent[axis];
-        let bin_of = |c: Vec3| (((c[axis] - centroids.min[axis]) * scale) as usize).min(BINS - 1);
-        let mut bins = [(Bounds::EMPTY, 0usize); BINS];
-        for item in items.iter() {
-            let bin = &mut bins[bin_of(item.centroid)];
-            bin.0 = bin.0.union(item.bounds);
-            bin.1 += 1;
-        }
         // Sweep from the right to get the right-hand areas and counts.
         let mut right = [(0.0f32, 0usize); BINS];
-        let mut acc = (Bounds::EMPTY, 0);
+        let mut acc = (Aabb::EMPTY, 0);
         for i in (1..BINS).rev() {
-            acc = (acc.0.union(bins[i].0), acc.1 + bins[i].1);
-            right[i] = (acc.0.half_area(), acc.1);
+            acc = (acc.0.union(bins[i].0.bounds), acc.1 + bins[i].1);
+            right[i] = (acc.0.bounds().half_area(), acc.1);
         }
-        let mut left = (Bounds::EMPTY, 0);
+        let mut left = (Aabb::EMPTY, 0);
         for split in 0..BINS - 1 {
-            left = (left.0.union(bins[split].0), left.1 + bins[split].1);
+            left = (left.0.union(bins[split].0.bounds), left.1 + bins[split].1);
             let (right_area, right_count) = right[split + 1];
             if left.1 == 0 || right_count == 0 {
                 continue;
             }
-            let cost = left.0.half_area() * left.1 as f32 + right_area * right_count as f32;
+            let cost = left.0.bounds().half_area() * left.1 as f32 + right_area * right_count as f32;
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, axis, split));
             }
@@ -453,16 +510,17 @@ fn build_node(items: &mut [BuildItem], first: usize) -> BuildNode {
     if items.len() <= MAX_LEAF && leaf_cost <= split_cost {
         return leaf();
     }
-    let scale = BINS as f32 / extent[axis];
-    let mid = partition(items, |item| {
-        ((((item.centroid[axis] - centroids.min[axis]) * scale) as usize).min(BINS - 1)) <= split
-    });
+    let side =
+        |range: std::ops::Range<usize>| bins[axis][range].iter().fold(Span::EMPTY, |s, b| s.union(b.0));
+    let (left_span, right_span) = (side(0..split + 1), side(split + 1..BINS));
+    let mid = partition(items, |item| bin_of(item.centroid, axis) <= split);
     let (left, right) = items.split_at_mut(mid);
     let children = if left.len() + right.len() > PARALLEL_BUILD {
-        let (l, r) = rayon::join(|| build_node(left, first), || build_node(right, first + mid));
+        let (l, r) =
+            rayon::join(|| build_node(left, first, left_span), || build_node(right, first + mid, right_span));
         [l, r]
     } else {
-        [build_node(left, first), build_node(right, first + mid)]
+        [build_node(left, first, left_span), build_node(right, first + mid, right_span)]
     };
     BuildNode::Interior { bounds, children: Box::new(children) }
 }
@@ -471,7 +529,8 @@ fn build_node(items: &mut [BuildItem], first: usize) -> BuildNode {
 fn median_split(items: &mut [BuildItem], first: usize, bounds: Bounds) -> BuildNode {
     let mid = items.len() / 2;
     let (left, right) = items.split_at_mut(mid);
-    let children = [build_node(left, first), build_node(right, first + mid)];
+    let (left_span, right_span) = (Span::of(left), Span::of(right));
+    let children = [build_node(left, first, left_span), build_node(right, first + mid, right_span)];
     BuildNode::Interior { bounds, children: Box::new(children) }
 }
 
