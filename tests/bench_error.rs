@@ -9,7 +9,7 @@ use std::path::Path;
 use common::{caustix, write, QUAD_SCENE};
 
 const HEADER: &str = "integrator,level,setting,seconds,rmse,rel_mse,mae,mean_ratio,caustic_rmse,\
-denoise_seconds,denoised_rmse,denoised_caustic_rmse";
+denoise_seconds,denoised_rmse,denoised_caustic_rmse,fireflies";
 
 /// A CSV row's fields (the third, the setting, is quoted and holds commas).
 fn columns(line: &str) -> Vec<String> {
@@ -80,7 +80,9 @@ fn writes_a_row_per_render_and_a_curve_per_integrator() {
             let seconds: f64 = row[3].parse().unwrap();
             assert!(seconds > 0.0 && rmse[level] > 0.0 && rmse[level].is_finite(), "{row:?}");
             // Caustic region and denoising were not asked for: empty.
-            assert!(row[8..].iter().all(String::is_empty), "{row:?}");
+            assert!(row[8..12].iter().all(String::is_empty), "{row:?}");
+            // A count of fireflies, always.
+            assert!(row[12].parse::<usize>().is_ok(), "{row:?}");
         }
         // The path tracer's noise falls as its budget grows (4x the samples:
         // about half the error). The quad has no indirect light, so the photon
@@ -187,7 +189,7 @@ fn measures_the_caustic_region_and_the_denoised_image_when_asked() {
             assert!(number(9) > 0.0 && number(10) > 0.0 && number(10).is_finite(), "{row:?}");
             assert!(number(11) > 0.0 && number(11).is_finite(), "{row:?}");
         } else {
-            assert!(row[9..].iter().all(String::is_empty), "{row:?}");
+            assert!(row[9..12].iter().all(String::is_empty), "{row:?}");
         }
     }
     if cfg!(feature = "denoise") {

@@ -43,6 +43,9 @@ pub struct ErrorPoint {
     pub error: Difference,
     /// Error over the caustic region alone, when one was given.
     pub caustic_error: Option<Difference>,
+    /// Pixels that are fireflies in the image but not in the reference
+    /// ([`Image::fireflies_beyond`]).
+    pub fireflies: usize,
     /// The same render denoised, when asked.
     pub denoised: Option<DenoisedPoint>,
 }
@@ -144,7 +147,9 @@ pub fn measure(
     };
     let mut points = Vec::new();
     let mut push = |integrator, level, settings: &RenderConfig, rendered: &Rendered| -> crate::Result<()> {
-        let (error, caustic_error) = errors(&rendered.film.beauty());
+        let beauty = rendered.film.beauty();
+        let (error, caustic_error) = errors(&beauty);
+        let fireflies = beauty.fireflies_beyond(reference).expect("rendered at the reference's size");
         let denoised = if plan.denoise {
             let start = Instant::now();
             let image = rendered.film.denoised()?;
@@ -161,6 +166,7 @@ pub fn measure(
             seconds: rendered.stats.elapsed.as_secs_f64(),
             error,
             caustic_error,
+            fireflies,
             denoised,
         };
         report(&point);
@@ -201,7 +207,7 @@ pub fn name(integrator: Integrator) -> String {
 pub fn csv(points: &[ErrorPoint]) -> String {
     let mut out = String::from(
         "integrator,level,setting,seconds,rmse,rel_mse,mae,mean_ratio,caustic_rmse,\
-         denoise_seconds,denoised_rmse,denoised_caustic_rmse\n",
+         denoise_seconds,denoised_rmse,denoised_caustic_rmse,fireflies\n",
     );
     let rmse = |d: Option<&Difference>| d.map_or(String::new(), |d| format!("{:.6e}", d.rmse));
     for p in points {
@@ -209,7 +215,7 @@ pub fn csv(points: &[ErrorPoint]) -> String {
         let d = p.denoised.as_ref();
         let _ = writeln!(
             out,
-            "{},{},\"{}\",{:.4},{:.6e},{:.6e},{:.6e},{:.5},{},{},{},{}",
+            "{},{},\"{}\",{:.4},{:.6e},{:.6e},{:.6e},{:.5},{},{},{},{},{}",
             name(p.integrator),
             p.level,
             p.setting,
@@ -222,6 +228,7 @@ pub fn csv(points: &[ErrorPoint]) -> String {
             d.map_or(String::new(), |d| format!("{:.4}", d.seconds)),
             rmse(d.map(|d| &d.error)),
             rmse(d.and_then(|d| d.caustic_error.as_ref())),
+            p.fireflies,
         );
     }
     out

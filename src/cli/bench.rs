@@ -381,12 +381,13 @@ fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
                 }
             }
             eprintln!(
-                "{:>6} level {}: {:>8.2} s, RMSE {:.5}, mean ratio {:.4}{also}  ({})",
+                "{:>6} level {}: {:>8.2} s, RMSE {:.5}, mean ratio {:.4}, fireflies {}{also}  ({})",
                 error::name(p.integrator),
                 p.level,
                 p.seconds,
                 p.error.rmse,
                 p.error.means.0 / p.error.means.1,
+                p.fireflies,
                 p.setting
             )
         })

@@ -62,6 +62,8 @@ pub fn compare(image: &Path, reference: &Path, error_image: Option<&Path>, scale
     outln!("rel_mse  {:.6}", d.rel_mse);
     outln!("mae      {:.6}", d.mae);
     outln!("mean     {:.6} (reference {:.6}, ratio {:.4})", d.means.0, d.means.1, d.means.0 / d.means.1);
+    let fireflies = a.fireflies_beyond(&b).expect("sizes checked");
+    outln!("fireflies {fireflies} (pixels over 10x their 3x3 median where the reference's are not)");
     // Bit for bit (EXR files of the same pixels need not be the same bytes).
     let differ = a
         .pixels

@@ -144,6 +144,41 @@ impl Image {
         Some(Difference { rmse: (se / n).sqrt(), rel_mse: rel / n, mae: ae / n, means: (ma / n, mb / n) })
     }
 
+    /// Which pixels are fireflies: brighter (mean of the channels) than 10
+    /// times the median of their 3 x 3 neighbourhood (themselves included;
+    /// at the border, the neighbours there are). One flag per pixel.
+    pub fn fireflies(&self) -> Vec<bool> {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let value = |x: i64, y: i64| self.pixels[(y * w + x) as usize].element_sum() / 3.0;
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let mut around: Vec<f32> = (-1..=1)
+                    .flat_map(|dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
+                    .filter(|&(nx, ny)| (0..w).contains(&nx) && (0..h).contains(&ny))
+                    .map(|(nx, ny)| value(nx, ny))
+                    .collect();
+                around.sort_by(f32::total_cmp);
+                value(x, y) > 10.0 * around[around.len() / 2]
+            })
+            .collect()
+    }
+
+    /// How many pixels are fireflies ([`Image::fireflies`]) here but not in
+    /// `reference`; `None` if the sizes differ.
+    pub fn fireflies_beyond(&self, reference: &Image) -> Option<usize> {
+        if (self.width, self.height) != (reference.width, reference.height) {
+            return None;
+        }
+        Some(
+            self.fireflies()
+                .iter()
+                .zip(reference.fireflies())
+                .filter(|&(&here, there)| here && !there)
+                .count(),
+        )
+    }
+
     /// A false-colour picture of where this image differs from `reference`:
     /// black where equal, through blue and green to red at `scale` or more
     /// (absolute difference, averaged over channels).
@@ -253,6 +288,33 @@ mod tests {
         assert_eq!(a.difference_where(&b, &[true, false]).unwrap().rmse, 0.0);
         assert!(a.difference_where(&b, &[false, false]).is_none());
         assert!(a.difference_where(&b, &[true]).is_none());
+    }
+
+    #[test]
+    fn fireflies_are_pixels_far_above_their_neighbourhood() {
+        // A grey 5 x 4 image with one pixel 11x its surroundings (a firefly),
+        // one 9x (not), and a bright pair side by side on the bottom row
+        // (each sees the other among its six neighbours there: the median
+        // stays grey, so both count).
+        let mut pixels = vec![Vec3::splat(0.1); 20];
+        pixels[6] = Vec3::splat(1.1);
+        pixels[8] = Vec3::splat(0.9);
+        pixels[16] = Vec3::splat(2.0);
+        pixels[17] = Vec3::splat(2.0);
+        let image = Image { width: 5, height: 4, pixels };
+        let flagged: Vec<usize> =
+            image.fireflies().iter().enumerate().filter(|(_, &f)| f).map(|(i, _)| i).collect();
+        assert_eq!(flagged, vec![6, 16, 17]);
+        // Against a reference that has the pair too, only the lone pixel counts.
+        let mut pixels = vec![Vec3::splat(0.1); 20];
+        pixels[16] = Vec3::splat(2.0);
+        pixels[17] = Vec3::splat(2.0);
+        let reference = Image { width: 5, height: 4, pixels };
+        assert_eq!(image.fireflies_beyond(&reference), Some(1));
+        assert_eq!(
+            image.fireflies_beyond(&Image { width: 4, height: 5, pixels: vec![Vec3::ZERO; 20] }),
+            None
+        );
     }
 
     #[test]
