@@ -94,13 +94,13 @@ impl<T: Copy> PointTree<T> {
     pub fn new(points: &[Vec3], values: &[T]) -> PointTree<T> {
         assert_eq!(points.len(), values.len(), "a value per point");
         assert!(points.len() < u32::MAX as usize, "fewer than 2^32 points");
-        let mut items: Vec<u32> = (0..points.len() as u32).collect();
+        let mut entries: Vec<(Vec3, u32)> = points.iter().zip(0..).map(|(&p, i)| (p, i)).collect();
         let mut splits = vec![(0.0, 0); inner_nodes(points.len())];
-        split(points, &mut items, 0, &mut splits);
+        split(&mut entries, 0, &mut splits);
         PointTree {
-            points: items.iter().map(|&i| points[i as usize]).collect(),
-            values: items.iter().map(|&i| values[i as usize]).collect(),
-            items,
+            points: entries.iter().map(|e| e.0).collect(),
+            values: entries.iter().map(|e| values[e.1 as usize]).collect(),
+            items: entries.into_iter().map(|e| e.1).collect(),
             splits,
         }
     }
@@ -184,15 +184,16 @@ fn inner_nodes(n: usize) -> usize {
     largest(0, n)
 }
 
-/// Splits `items` (indices into `points`) at the median of their widest
-/// axis, recording the split at `node`, and recurses into both halves.
-fn split(points: &[Vec3], items: &mut [u32], node: usize, splits: &mut [(f32, u8)]) {
-    if items.len() <= LEAF {
+/// Splits `entries` (points with their index) at the median of their
+/// widest axis, ties by index, recording the split at `node`, and recurses
+/// into both halves. The points move with their index (no indirection), so
+/// the median selection reads contiguous memory.
+fn split(entries: &mut [(Vec3, u32)], node: usize, splits: &mut [(f32, u8)]) {
+    if entries.len() <= LEAF {
         return;
     }
-    let (lo, hi) = items.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &i| {
-        (lo.min(points[i as usize]), hi.max(points[i as usize]))
-    });
+    let (lo, hi) =
+        entries.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), e| (lo.min(e.0), hi.max(e.0)));
     let extent = hi - lo;
     let axis = if extent.x >= extent.y && extent.x >= extent.z {
         0
@@ -201,13 +202,12 @@ fn split(points: &[Vec3], items: &mut [u32], node: usize, splits: &mut [(f32, u8
     } else {
         2
     };
-    let mid = items.len() / 2;
-    let key = |&i: &u32| (points[i as usize][axis], i);
-    items.select_nth_unstable_by(mid, |a, b| key(a).0.total_cmp(&key(b).0).then(a.cmp(b)));
-    splits[node] = (points[items[mid] as usize][axis], axis as u8);
-    let (left, right) = items.split_at_mut(mid);
-    split(points, left, 2 * node + 1, splits);
-    split(points, right, 2 * node + 2, splits);
+    let mid = entries.len() / 2;
+    entries.select_nth_unstable_by(mid, |a, b| a.0[axis].total_cmp(&b.0[axis]).then(a.1.cmp(&b.1)));
+    splits[node] = (entries[mid].0[axis], axis as u8);
+    let (left, right) = entries.split_at_mut(mid);
+    split(left, 2 * node + 1, splits);
+    split(right, 2 * node + 2, splits);
 }
 
 #[cfg(test)]
