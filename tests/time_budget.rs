@@ -47,6 +47,98 @@ fn samples_taken_in_rounds_make_the_plain_render_of_as_many_samples() {
 }
 
 #[test]
+fn snapshots_show_the_samples_so_far() {
+    let scene = cornell();
+    let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
+    let config = RenderConfig {
+        integrator: IntegratorKind::Path,
+        width: 8,
+        height: 8,
+        time: Some(0.3),
+        ..scene.config.clone()
+    };
+    let seen = std::sync::Mutex::new(Vec::new());
+    let snapshot = |film: &caustix::film::Film, samples: u32| {
+        seen.lock().unwrap().push((samples, film.clone()));
+    };
+    let timed = caustix::integrator::render_with_maps(
+        &scene,
+        accel.as_ref(),
+        &config,
+        None,
+        &|_| {},
+        Some(&snapshot),
+    )
+    .unwrap();
+    let seen = seen.into_inner().unwrap();
+    let counts: Vec<u32> = seen.iter().map(|s| s.0).collect();
+    // One per round but the last (whose image is the render itself): 1, 2,
+    // 4, ... (a round the time left cuts short ends the render).
+    assert!(counts.len() >= 2, "{counts:?}");
+    assert!(counts[0] == 1 && counts.windows(2).all(|w| w[1] > w[0]), "{counts:?}");
+    assert!(*counts.last().unwrap() < timed.stats.samples_per_pixel, "{counts:?}");
+    // Each is the plain render of as many samples (but the first: a plain
+    // render of one sample aims at the pixels' centres).
+    for (samples, film) in seen.iter().skip(1).take(2) {
+        let plain = RenderConfig { time: None, samples: *samples, ..config.clone() };
+        let plain = caustix::render(&scene, accel.as_ref(), &plain, &|_| {}).unwrap();
+        for (a, b) in film.pixels.iter().zip(&plain.film.pixels) {
+            let (a, b) = (a.total(), b.total());
+            assert!(
+                (a - b).abs().max_element() <= 1e-4 * b.max_element().max(1e-3),
+                "{samples} samples: {a} vs {b}"
+            );
+        }
+    }
+    // SPPM: after passes 1, 2, 4, ...
+    let mut sppm = RenderConfig { integrator: IntegratorKind::Sppm, width: 8, height: 8, ..config };
+    sppm.photons.sppm.photons_per_pass = 1_000;
+    let passes = std::sync::Mutex::new(Vec::new());
+    let snapshot = |_: &caustix::film::Film, n: u32| passes.lock().unwrap().push(n);
+    caustix::integrator::render_with_maps(&scene, accel.as_ref(), &sppm, None, &|_| {}, Some(&snapshot))
+        .unwrap();
+    let passes = passes.into_inner().unwrap();
+    assert!(!passes.is_empty() && passes.iter().enumerate().all(|(i, &n)| n == 1 << i), "{passes:?}");
+}
+
+#[test]
+fn snapshots_need_a_time_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.png");
+    let run = common::caustix(&[
+        "render".as_ref(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml").as_os_str(),
+        "--snapshots".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && stderr.contains("--snapshots shows a render to a time budget"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+    // With a budget, the output is written as the render refines, and at the end.
+    let run = common::caustix(&[
+        "render".as_ref(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml").as_os_str(),
+        "--snapshots".as_ref(),
+        "--time".as_ref(),
+        "0.5".as_ref(),
+        "--width".as_ref(),
+        "16".as_ref(),
+        "--height".as_ref(),
+        "16".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(stderr.contains(&format!("snapshot: {} after 1 samples per pixel", out.display())), "{stderr}");
+    assert!(out.exists());
+}
+
+#[test]
 fn sppm_runs_passes_until_the_budget() {
     let scene = cornell();
     let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();

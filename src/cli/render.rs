@@ -35,6 +35,12 @@ pub struct RenderArgs {
     /// Whitted and photon mapping, more passes for SPPM (overrides [render] time).
     #[arg(long)]
     time: Option<f32>,
+    /// With a time budget: write the output image (not denoised) each time
+    /// the render has refined, after each round of samples (SPPM: after
+    /// passes 1, 2, 4, ...), so it can be looked at, or kept if the render is
+    /// stopped.
+    #[arg(long)]
+    snapshots: bool,
     /// Photon maps traced beforehand by `caustix photons` (same scene and
     /// settings), used instead of tracing them.
     #[arg(long)]
@@ -256,6 +262,10 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         None => args.crop,
     };
     caustix::integrator::check(&scene, &settings).map_err(in_flags)?;
+    anyhow::ensure!(
+        !args.snapshots || settings.time.is_some(),
+        "--snapshots shows a render to a time budget as it refines: give --time SECONDS (or [render] time)"
+    );
     let maps = match &args.photon_map {
         Some(path) if settings.integrator == IntegratorKind::Photon => {
             let diagonal = caustix::integrator::Context::diagonal_of(&scene);
@@ -291,11 +301,37 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     if settings.time.is_some() {
         bar.enable_steady_tick(std::time::Duration::from_millis(200));
     }
+    // Each snapshot overwrites the output; one that fails to write is
+    // reported and the render goes on (the final write reports again).
+    let sppm = settings.integrator == IntegratorKind::Sppm;
+    let snapshot = |film: &caustix::film::Film, samples: u32| {
+        let written = if tile_file {
+            caustix::film::tile::save(&output, &film.beauty(), &scene, &settings)
+        } else {
+            film.beauty().save(&output, args.exposure)
+        };
+        bar.suspend(|| match written {
+            Ok(()) => {
+                let unit = match (sppm, samples) {
+                    (true, 1) => "pass",
+                    (true, _) => "passes",
+                    (false, _) => "samples per pixel",
+                };
+                eprintln!("snapshot: {} after {samples} {unit}", output.display())
+            }
+            Err(e) => eprintln!("snapshot not written: {e}"),
+        });
+    };
     let rendered = pool
         .install(|| {
-            caustix::integrator::render_with_maps(&scene, accel.as_ref(), &settings, maps.as_ref(), &|n| {
-                bar.inc(n)
-            })
+            caustix::integrator::render_with_maps(
+                &scene,
+                accel.as_ref(),
+                &settings,
+                maps.as_ref(),
+                &|n| bar.inc(n),
+                args.snapshots.then_some(&snapshot as &caustix::integrator::Snapshot),
+            )
         })
         .map_err(in_flags)?;
     bar.finish_and_clear();

@@ -27,6 +27,11 @@ use crate::scene::Scene;
 /// [`Integrator::work_units`]); the command line drives its progress bar with it.
 pub type Progress<'p> = dyn Fn(u64) + Sync + 'p;
 
+/// Called with the image so far and the camera samples (SPPM: passes) in
+/// it, while a render to a time budget refines: after each round of
+/// samples, and after SPPM passes 1, 2, 4, 8 and so on.
+pub type Snapshot<'s> = dyn Fn(&Film, u32) + Sync + 's;
+
 /// What every integrator reads: the scene, its intersector and the config.
 #[derive(Clone, Copy)]
 pub struct Context<'a> {
@@ -43,6 +48,8 @@ pub struct Context<'a> {
     /// The camera samples of each pixel this pass takes: all of them, or
     /// one round of a render to a time budget.
     pub samples: SampleRange,
+    /// Where the images so far of a render to a time budget go, if anywhere.
+    pub snapshot: Option<&'a Snapshot<'a>>,
 }
 
 /// Camera samples `first .. first + count` of every pixel (by index: each
@@ -65,6 +72,7 @@ impl<'a> Context<'a> {
             diagonal: Context::diagonal_of(scene),
             photon_maps: None,
             samples: SampleRange { first: 0, count: config.samples },
+            snapshot: None,
         }
     }
 
@@ -161,23 +169,25 @@ pub fn render(
     config: &RenderConfig,
     progress: &Progress,
 ) -> Result<Rendered> {
-    render_with_maps(scene, accel, config, None, progress)
+    render_with_maps(scene, accel, config, None, progress, None)
 }
 
 /// [`render`] with photon maps made beforehand (see
 /// [`crate::photon::file::load`], which checks they fit the scene and
-/// settings) instead of tracing them, for the integrators that use them.
+/// settings) instead of tracing them, for the integrators that use them;
+/// with a time budget, `snapshot` (if given) sees the image as it refines.
 pub fn render_with_maps(
     scene: &Scene,
     accel: &dyn Intersector,
     config: &RenderConfig,
     maps: Option<&PhotonMaps>,
     progress: &Progress,
+    snapshot: Option<&Snapshot>,
 ) -> Result<Rendered> {
     check(scene, config)?;
     let start = Instant::now();
     let integrator = create(config.integrator);
-    let ctx = Context { photon_maps: maps, ..Context::new(scene, accel, config) };
+    let ctx = Context { photon_maps: maps, snapshot, ..Context::new(scene, accel, config) };
     let mut rendered = match config.time {
         Some(seconds) if integrator.refines_by_samples() => {
             render_to_time(integrator.as_ref(), &ctx, Duration::from_secs_f32(seconds), start, progress)
@@ -235,6 +245,13 @@ fn render_to_time(
         let affordable = (left / per_sample.max(1e-9)).floor().min((max - done) as f64) as u32;
         if affordable == 0 {
             break;
+        }
+        if let (Some(snapshot), Some(first)) = (ctx.snapshot, &first) {
+            let mut film = first.film.clone();
+            for (p, s) in film.pixels.iter_mut().zip(&sum) {
+                *p = *s * (1.0 / done as f32);
+            }
+            snapshot(&film, done);
         }
         batch = done.min(affordable);
     }

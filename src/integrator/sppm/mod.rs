@@ -64,6 +64,9 @@ impl Integrator for Sppm {
                     if start.elapsed().as_secs_f64() + longest > budget as f64 {
                         break;
                     }
+                    if let Some(snapshot) = ctx.snapshot.filter(|_| run.passes().is_power_of_two()) {
+                        snapshot(&run.rendered(start.elapsed()).film, run.passes());
+                    }
                 }
             }
             None => {
