@@ -228,8 +228,10 @@ pub struct RenderConfig {
     /// Refine until this many seconds have passed instead of taking a fixed
     /// number of samples (`None`): the path tracer, Whitted and photon
     /// mapping add camera samples (and with them gather rays) in rounds,
-    /// SPPM adds passes. The image is written when the next round would not
-    /// fit in the budget.
+    /// SPPM adds passes. From 10 s on, photon mapping also traces more
+    /// photons than the scene asks, in step with the budget (`t^(2/3)`), so
+    /// its maps' bias keeps falling too. The image is written when the next
+    /// round would not fit in the budget.
     pub time: Option<f32>,
     /// Render only this part of the image (`None`: all of it). Every pixel
     /// has its own random stream, so a region's pixels are bit-identical to

@@ -11,7 +11,7 @@ use super::whitted::{SurfaceLight, WhittedTracer};
 use super::{Context, Integrator, Progress, Rendered};
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
-use crate::config::Estimate;
+use crate::config::{Estimate, PhotonConfig, RenderConfig};
 use crate::photon::{build_maps, PhotonMap, PhotonMaps};
 use crate::query::{Interaction, RayCount, SceneQuery, SurfacePoint};
 use crate::sampling::{around, cosine_hemisphere, stratified, Rng};
@@ -19,14 +19,84 @@ use crate::sampling::{around, cosine_hemisphere, stratified, Rng};
 /// The photon-mapping integrator.
 pub struct PhotonMapping;
 
+/// With a time budget of `t` seconds, the seconds to spend tracing and
+/// building photon maps: none beyond the scene's own counts under 10 s,
+/// then `0.43 t^(2/3)` (2 s of 10, 6.6 s of 60).
+///
+/// More photons shrink the estimates' radii, and with them the bias that
+/// more camera samples cannot remove, so the error keeps falling as the
+/// budget grows. The bias falls as 1 / photons (the radius squared at a
+/// fixed k) and the noise as 1 / sqrt(samples); the least error for a time
+/// `t` takes photons growing as `t^(2/3)` and samples as `t`. Bigger maps
+/// also make each sample slower (deeper trees), and under 10 s the samples'
+/// noise is most of the error: there more photons cost more than they gave
+/// (BENCHMARKS.md, "Photon counts under a time budget").
+fn photon_seconds(t: f64) -> f64 {
+    if t < 10.0 {
+        0.0
+    } else {
+        0.2 * 10f64.cbrt() * t.powf(2.0 / 3.0)
+    }
+}
+
+/// The next photon count, as a multiple of the scene's, for maps that are
+/// to take `target` seconds in all, when `spent` seconds are gone and the
+/// last maps (at `factor` times the scene's count) took `last` seconds: what
+/// the time left affords at the last maps' rate, at most 16 times them (the
+/// rate is measured again at each step), or `None` when that is not at
+/// least twice as many.
+fn grow_photons(target: f64, spent: f64, last: f64, factor: f64) -> Option<f64> {
+    let per_factor = last.max(1e-6) / factor;
+    let next = ((target - spent) / per_factor).min(16.0 * factor);
+    (next >= 2.0 * factor).then_some(next)
+}
+
 impl Integrator for PhotonMapping {
     fn refines_by_samples(&self) -> bool {
         true
     }
 
+    /// The scene's maps; with a time budget, as many more photons as
+    /// `photon_seconds` afford (never fewer than the scene's), grown in
+    /// steps of at most 16 times, each judged by how long the last took.
     fn photon_maps(&self, ctx: &Context) -> Option<PhotonMaps> {
-        let p = &ctx.config.photons;
-        Some(build_maps(&ctx.query, p, ctx.config.seed, ctx.diagonal))
+        let config = ctx.config;
+        let mut maps = build_maps(&ctx.query, &config.photons, config.seed, ctx.diagonal);
+        let Some(budget) = config.time else { return Some(maps) };
+        let target = photon_seconds(budget as f64);
+        let seconds = |maps: &PhotonMaps| maps.stats.trace_seconds + maps.stats.build_seconds;
+        let (mut spent, mut factor) = (seconds(&maps), 1.0);
+        // Every step's time, reported with the last maps.
+        let (mut traced, mut built) = (maps.stats.trace_seconds, maps.stats.build_seconds);
+        // Half the memory available at most, for the film and all else.
+        let available = crate::memory::available().map(|bytes| bytes / 2);
+        let limit = crate::config::limits::MAX_PHOTONS as f64;
+        while let Some(mut next) = grow_photons(target, spent, seconds(&maps), factor) {
+            let scaled = loop {
+                let grow = |n: u32| (n as f64 * next).min(limit) as u32;
+                let photons = PhotonConfig {
+                    global_photons: grow(config.photons.global_photons),
+                    caustic_photons: grow(config.photons.caustic_photons),
+                    ..config.photons.clone()
+                };
+                let scaled = RenderConfig { photons, ..config.clone() };
+                if crate::memory::Estimate::of(ctx.scene(), &scaled).check(available).is_ok() {
+                    break Some(scaled);
+                }
+                next /= 2.0;
+                if next < 2.0 * factor {
+                    break None;
+                }
+            };
+            let Some(scaled) = scaled else { break };
+            let more = build_maps(&ctx.query, &scaled.photons, config.seed, ctx.diagonal);
+            spent += seconds(&more);
+            traced += more.stats.trace_seconds;
+            built += more.stats.build_seconds;
+            (maps, factor) = (more, next);
+        }
+        (maps.stats.trace_seconds, maps.stats.build_seconds) = (traced, built);
+        Some(maps)
     }
 
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
@@ -159,5 +229,33 @@ impl MapLight<'_> {
         let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
         let Some(s) = bsdf.sample_specular(rng) else { return Vec3::ZERO };
         s.weight * self.gather_radiance(&sp.spawn(s.wi), global, bounces + 1, rng, count)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn photon_time_grows_slower_than_the_budget_and_not_below_ten_seconds() {
+        assert_eq!(photon_seconds(9.9), 0.0);
+        let at = |t: f64| photon_seconds(t) / t;
+        assert!((photon_seconds(10.0) - 2.0).abs() < 0.01);
+        assert!(at(10.0) > at(60.0) && at(60.0) > at(600.0) && at(600.0) > 0.0);
+    }
+
+    #[test]
+    fn photons_grow_in_steps_the_time_left_affords() {
+        // Scene counts took 0.1 s of a 2-s target: at most 16x in one step.
+        assert_eq!(grow_photons(2.0, 0.1, 0.1, 1.0), Some(16.0));
+        // 16x took 1.6 s (1.7 s spent): 0.3 s left at 0.1 s per unit affords
+        // 3 units, less than twice 16: stop.
+        assert_eq!(grow_photons(2.0, 1.7, 1.6, 16.0), None);
+        // Scene counts took 0.5 s of a 2-s target: 3x more.
+        assert_eq!(grow_photons(2.0, 0.5, 0.5, 1.0), Some(3.0));
+        // Nothing left, or no target: stay.
+        assert_eq!(grow_photons(0.0, 0.2, 0.2, 1.0), None);
+        // A build too quick to time does not divide by zero.
+        assert_eq!(grow_photons(2.0, 0.0, 0.0, 1.0), Some(16.0));
     }
 }
