@@ -51,6 +51,16 @@ fn grow_photons(target: f64, spent: f64, last: f64, factor: f64) -> Option<f64> 
     (next >= 2.0 * factor).then_some(next)
 }
 
+/// `photons` with `factor` times the photon counts (at most the limit).
+fn scaled_photons(photons: &PhotonConfig, factor: f64) -> PhotonConfig {
+    let grow = |n: u32| (n as f64 * factor).min(crate::config::limits::MAX_PHOTONS as f64) as u32;
+    PhotonConfig {
+        global_photons: grow(photons.global_photons),
+        caustic_photons: grow(photons.caustic_photons),
+        ..photons.clone()
+    }
+}
+
 impl Integrator for PhotonMapping {
     fn refines_by_samples(&self) -> bool {
         true
@@ -63,33 +73,33 @@ impl Integrator for PhotonMapping {
         let config = ctx.config;
         let mut maps = build_maps(&ctx.query, &config.photons, config.seed, ctx.diagonal);
         let Some(budget) = config.time else { return Some(maps) };
+        // No map built (no light, say): nothing to grow.
+        if maps.stats.global_emitted + maps.stats.caustic_emitted == 0 {
+            return Some(maps);
+        }
         let target = photon_seconds(budget as f64);
         let seconds = |maps: &PhotonMaps| maps.stats.trace_seconds + maps.stats.build_seconds;
+        // Half the memory available at most, for the film and all else.
+        let available = crate::memory::available().map(|bytes| bytes / 2);
+        let fits = |photons: &PhotonConfig| {
+            let scaled = RenderConfig { photons: photons.clone(), ..config.clone() };
+            crate::memory::Estimate::of(ctx.scene(), &scaled).check(available).is_ok()
+        };
         let (mut spent, mut factor) = (seconds(&maps), 1.0);
         // Every step's time, reported with the last maps.
         let (mut traced, mut built) = (maps.stats.trace_seconds, maps.stats.build_seconds);
-        // Half the memory available at most, for the film and all else.
-        let available = crate::memory::available().map(|bytes| bytes / 2);
-        let limit = crate::config::limits::MAX_PHOTONS as f64;
-        while let Some(mut next) = grow_photons(target, spent, seconds(&maps), factor) {
-            let scaled = loop {
-                let grow = |n: u32| (n as f64 * next).min(limit) as u32;
-                let photons = PhotonConfig {
-                    global_photons: grow(config.photons.global_photons),
-                    caustic_photons: grow(config.photons.caustic_photons),
-                    ..config.photons.clone()
-                };
-                let scaled = RenderConfig { photons, ..config.clone() };
-                if crate::memory::Estimate::of(ctx.scene(), &scaled).check(available).is_ok() {
-                    break Some(scaled);
-                }
-                next /= 2.0;
-                if next < 2.0 * factor {
-                    break None;
-                }
-            };
-            let Some(scaled) = scaled else { break };
-            let more = build_maps(&ctx.query, &scaled.photons, config.seed, ctx.diagonal);
+        while let Some(next) = grow_photons(target, spent, seconds(&maps), factor) {
+            // The most that fit in memory, halving down to twice the last.
+            let fitting = std::iter::successors(Some(next), |f| Some(f / 2.0))
+                .take_while(|&f| f >= 2.0 * factor)
+                .map(|f| (f, scaled_photons(&config.photons, f)))
+                .find(|(_, photons)| fits(photons));
+            let Some((next, photons)) = fitting else { break };
+            // At the photon-count limit: no more to grow.
+            if photons == scaled_photons(&config.photons, factor) {
+                break;
+            }
+            let more = build_maps(&ctx.query, &photons, config.seed, ctx.diagonal);
             spent += seconds(&more);
             traced += more.stats.trace_seconds;
             built += more.stats.build_seconds;
