@@ -24,7 +24,8 @@ const SPPM_BYTES_PER_PIXEL: u64 = 256;
 
 /// Bytes per stored photon: the record, twice while the traced chunks are
 /// joined, and the kd-tree (BENCHMARKS.md: 48 B and about 17 B), with the
-/// precomputed irradiance of every fourth photon.
+/// precomputed irradiance of at most every fourth photon (about 45 B each
+/// in its nearest-point tree; every twelfth at the default `global_k`).
 const PHOTON_BYTES: u64 = 2 * std::mem::size_of::<crate::photon::Photon>() as u64 + 17 + 16;
 
 /// Bytes per triangle of a mesh being built: positions, normals and indices

@@ -340,7 +340,8 @@ mod tests {
         let l = map.radiance(Vec3::new(0.5, 0.0, 0.5), Vec3::Y, Vec3::Y, &lambertian, &cone)
             * std::f32::consts::PI;
         assert!((l.x - 1.0).abs() < 0.1, "{l}");
-        // Precomputed at every 4th photon, the lookup agrees with the full estimate.
+        // Precomputed at every 4th photon (the densest stride used), the
+        // lookup agrees with the full estimate.
         let mut map = map;
         map.precompute_irradiance(4, &est);
         let grey = Material { diffuse: Vec3::splat(0.5), ..Material::default() };
