@@ -340,14 +340,22 @@ mod tests {
         let l = map.radiance(Vec3::new(0.5, 0.0, 0.5), Vec3::Y, Vec3::Y, &lambertian, &cone)
             * std::f32::consts::PI;
         assert!((l.x - 1.0).abs() < 0.1, "{l}");
-        // Precomputed at every 4th photon (the densest stride used), the
+        // Precomputed at every 4th photon (the densest stride used) and at
+        // every k/8-th (the default rule: about 8 points per disc), the
         // lookup agrees with the full estimate.
         let mut map = map;
-        map.precompute_irradiance(4, &est);
         let grey = Material { diffuse: Vec3::splat(0.5), ..Material::default() };
-        let pre = map.precomputed_radiance(Vec3::new(0.5, 0.0, 0.5), Vec3::Y, &grey, &est);
-        let full = map.radiance(Vec3::new(0.5, 0.0, 0.5), Vec3::Y, Vec3::Y, &grey, &est);
-        assert!((pre - full).abs().max_element() < 0.1 * full.x, "{pre} vs {full}");
+        for stride in [4, est.k / 8] {
+            map.precompute_irradiance(stride, &est);
+            for p in [Vec3::new(0.5, 0.0, 0.5), Vec3::new(0.3, 0.0, 0.7), Vec3::new(0.8, 0.0, 0.2)] {
+                let pre = map.precomputed_radiance(p, Vec3::Y, &grey, &est);
+                let full = map.radiance(p, Vec3::Y, Vec3::Y, &grey, &est);
+                assert!(
+                    (pre - full).abs().max_element() < 0.1 * full.x,
+                    "stride {stride}, {p}: {pre} vs {full}"
+                );
+            }
+        }
         // Surfaces facing away find nothing.
         assert_eq!(map.precomputed_radiance(Vec3::new(0.5, 0.0, 0.5), -Vec3::Y, &grey, &est), Vec3::ZERO);
     }
