@@ -190,24 +190,17 @@ fn bad_maps_and_tiles_are_clear_errors_with_no_output() {
     assert!(!out.exists());
 
     // A tile out of range.
-    let (ok, e) = run(&[
-        "render".as_ref(),
-        cornell().as_os_str(),
-        "--tile".as_ref(),
-        "4/3".as_ref(),
-        "-o".as_ref(),
-        out.as_os_str(),
-    ]);
-    assert!(!ok && e.contains("1 <= I <= N"), "{e}");
-    let (ok, e) = run(&[
-        "render".as_ref(),
-        cornell().as_os_str(),
-        "--tile".as_ref(),
-        "0/3".as_ref(),
-        "-o".as_ref(),
-        out.as_os_str(),
-    ]);
-    assert!(!ok && e.contains("1 <= I <= N"), "{e}");
+    for tile in ["4/3", "0/3"] {
+        let (ok, e) = run(&[
+            "render".as_ref(),
+            cornell().as_os_str(),
+            "--tile".as_ref(),
+            tile.as_ref(),
+            "-o".as_ref(),
+            out.as_os_str(),
+        ]);
+        assert!(!ok && e.contains("1 <= I <= N"), "{tile}: {e}");
+    }
     assert!(!out.exists());
 
     // Tiles: missing, doubled, of another render.

@@ -248,17 +248,13 @@ fn render_to_time(
         }
         if let (Some(snapshot), Some(first)) = (ctx.snapshot, &first) {
             let mut film = first.film.clone();
-            for (p, s) in film.pixels.iter_mut().zip(&sum) {
-                *p = *s * (1.0 / done as f32);
-            }
+            set_average(&mut film, &sum, done);
             snapshot(&film, done);
         }
         batch = done.min(affordable);
     }
     let mut rendered = first.expect("at least one round");
-    for (p, s) in rendered.film.pixels.iter_mut().zip(sum) {
-        *p = s * (1.0 / done as f32);
-    }
+    set_average(&mut rendered.film, &sum, done);
     rendered.stats.rays = rays;
     rendered.stats.samples_per_pixel = done;
     rendered.stats.notes.push(format!(
@@ -266,6 +262,14 @@ fn render_to_time(
         budget.as_secs_f64()
     ));
     rendered
+}
+
+/// Sets `film`'s pixels to the average of `samples` camera samples whose
+/// per-pixel sums are `sum`.
+fn set_average(film: &mut Film, sum: &[crate::film::Sample], samples: u32) {
+    for (p, s) in film.pixels.iter_mut().zip(sum) {
+        *p = *s * (1.0 / samples as f32);
+    }
 }
 
 /// Checks, before any work, that `config` is valid ([`RenderConfig::validate`])

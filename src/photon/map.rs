@@ -93,19 +93,15 @@ impl PhotonMap {
             return;
         }
         let order = morton_order(&chosen.iter().map(|p| p.position).collect::<Vec<_>>());
-        let mut estimates: Vec<(usize, Vec3, f32)> = order
+        let estimates: Vec<(Vec3, f32)> = order
             .par_iter()
-            .map(|&i| {
-                let p = chosen[i];
-                let (irradiance, r2) = self.irradiance_over(p.position, p.normal, estimate);
-                (i, irradiance, r2)
-            })
+            .map(|&i| self.irradiance_over(chosen[i].position, chosen[i].normal, estimate))
             .collect();
-        estimates.par_sort_unstable_by_key(|e| e.0);
-        let points = estimates
-            .into_iter()
-            .map(|(i, irradiance, r2)| (chosen[i].position, chosen[i].normal, irradiance, r2))
-            .collect();
+        // Back to photon order: the `j`-th estimate is of photon `order[j]`.
+        let mut points = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0); chosen.len()];
+        for (&i, (irradiance, r2)) in order.iter().zip(estimates) {
+            points[i] = (chosen[i].position, chosen[i].normal, irradiance, r2);
+        }
         self.precomputed = Some(Precomputed::new(points));
     }
 
