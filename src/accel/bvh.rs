@@ -3,7 +3,9 @@
 //! - Build: binned surface area heuristic (SAH) over triangle centroids,
 //!   12 bins on each axis, subtrees built in parallel with rayon; the binary
 //!   tree is then collapsed into nodes of up to four children (like Embree's
-//!   BVH4), opening the child of largest area first.
+//!   BVH4), opening the child of largest area first, large subtrees in
+//!   parallel into their own parts of the node array (the same array
+//!   whatever the threads).
 //! - Layout: 128-byte nodes holding their four children's boxes side by
 //!   side, so one ray tests all four in SIMD lanes; nodes depth-first,
 //!   triangles copied into leaf order with their vertices inline.
@@ -15,7 +17,7 @@
 //!
 //! Hits are reported exactly as Embree reports them (see [`Hit`]).
 
-use glam::{BVec4A, Mat3A, Vec3, Vec3A, Vec4};
+use glam::{BVec4A, Mat3A, UVec3, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::embree::TriangleView;
@@ -51,6 +53,17 @@ struct Node {
     children: u8,
 }
 
+impl Node {
+    /// A node with no children, whose lanes no ray enters.
+    const UNUSED: Node = Node {
+        min: [Vec4::INFINITY; 3],
+        max: [Vec4::NEG_INFINITY; 3],
+        child: [0; WIDTH],
+        count: [0; WIDTH],
+        children: 0,
+    };
+}
+
 /// A triangle in leaf order, vertices inline (44 bytes).
 #[derive(Debug, Clone, Copy)]
 struct Triangle {
@@ -69,14 +82,38 @@ struct BuildItem {
 
 /// The binary tree before it is collapsed into nodes of four.
 enum BuildNode {
-    Leaf { bounds: Bounds, first: usize, count: usize },
-    Interior { bounds: Bounds, children: Box<[BuildNode; 2]> },
+    Leaf {
+        bounds: Bounds,
+        first: usize,
+        count: usize,
+    },
+    Interior {
+        bounds: Bounds,
+        children: Box<[BuildNode; 2]>,
+        /// Nodes of four this subtree collapses into, so the collapse can
+        /// hand each subtree its own part of the node array in parallel.
+        collapsed: usize,
+    },
 }
 
 impl BuildNode {
+    fn interior(bounds: Bounds, children: [BuildNode; 2]) -> BuildNode {
+        let (lanes, used) = lanes(&children);
+        let collapsed = 1 + lanes[..used].iter().map(|lane| lane.collapsed()).sum::<usize>();
+        BuildNode::Interior { bounds, children: Box::new(children), collapsed }
+    }
+
     fn bounds(&self) -> Bounds {
         match self {
             BuildNode::Leaf { bounds, .. } | BuildNode::Interior { bounds, .. } => *bounds,
+        }
+    }
+
+    /// Nodes of four under this one as a child: none for a leaf.
+    fn collapsed(&self) -> usize {
+        match self {
+            BuildNode::Leaf { .. } => 0,
+            BuildNode::Interior { collapsed, .. } => *collapsed,
         }
     }
 }
@@ -104,17 +141,14 @@ impl Bvh {
     /// Builds a BVH over `meshes`; mesh `i` gets geometry id `i`, as in Embree.
     /// Indices must be in range (the Embree wrapper checks the same input).
     pub fn build(meshes: &[TriangleView<'_>]) -> Bvh {
-        let source: Vec<Triangle> = meshes
-            .iter()
-            .enumerate()
-            .flat_map(|(geom_id, mesh)| {
-                mesh.indices().iter().enumerate().map(move |(prim_id, t)| Triangle {
-                    v: t.map(|i| mesh.positions()[i as usize]),
-                    geom_id: geom_id as u32,
-                    prim_id: prim_id as u32,
-                })
-            })
-            .collect();
+        let mut source = Vec::with_capacity(meshes.iter().map(|m| m.indices().len()).sum());
+        for (geom_id, mesh) in meshes.iter().enumerate() {
+            source.par_extend(mesh.indices().par_iter().enumerate().map(|(prim_id, t)| Triangle {
+                v: t.map(|i| mesh.positions()[i as usize]),
+                geom_id: geom_id as u32,
+                prim_id: prim_id as u32,
+            }));
+        }
         let mut items: Vec<BuildItem> = source
             .par_iter()
             .enumerate()
@@ -128,10 +162,8 @@ impl Bvh {
         }
         let span = Span::of(&items);
         let root = build_node(&mut items, 0, span);
-        let triangles = items.iter().map(|item| source[item.triangle as usize]).collect();
-        let mut nodes = Vec::with_capacity(source.len() / MAX_LEAF + 1);
-        collapse(&root, &mut nodes);
-        Bvh { nodes, triangles }
+        let triangles = items.par_iter().map(|item| source[item.triangle as usize]).collect();
+        Bvh { nodes: collapse(&root), triangles }
     }
 
     /// Size and shape of the tree.
@@ -464,13 +496,15 @@ fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
     }
     let extent = centroids.max - centroids.min;
     let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), BINS as f32 / extent, Vec3A::ZERO);
-    let bin_of =
-        |c: Vec3A, axis: usize| (((c[axis] - centroids.min[axis]) * scale[axis]) as usize).min(BINS - 1);
-    let mut bins = [[(Span::EMPTY, 0usize); BINS]; 3];
+    // An item's bin on each axis, the three at once (the float-to-integer
+    // conversion saturates: a centroid on the lower edge goes to bin 0).
+    let bins_of = |c: Vec3A| ((c - centroids.min) * scale).as_uvec3().min(UVec3::splat(BINS as u32 - 1));
+    let mut bins = [[(Aabb::EMPTY, 0usize); BINS]; 3];
     for item in items.iter() {
+        let bin = bins_of(item.centroid);
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            let bin = &mut axis_bins[bin_of(item.centroid, axis)];
-            *bin = (bin.0.add(item), bin.1 + 1);
+            let bin = &mut axis_bins[bin[axis] as usize];
+            *bin = (bin.0.union(item.bounds), bin.1 + 1);
         }
     }
 
@@ -484,12 +518,12 @@ fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
         let mut right = [(0.0f32, 0usize); BINS];
         let mut acc = (Aabb::EMPTY, 0);
         for i in (1..BINS).rev() {
-            acc = (acc.0.union(bins[i].0.bounds), acc.1 + bins[i].1);
+            acc = (acc.0.union(bins[i].0), acc.1 + bins[i].1);
             right[i] = (acc.0.bounds().half_area(), acc.1);
         }
         let mut left = (Aabb::EMPTY, 0);
         for split in 0..BINS - 1 {
-            left = (left.0.union(bins[split].0.bounds), left.1 + bins[split].1);
+            left = (left.0.union(bins[split].0), left.1 + bins[split].1);
             let (right_area, right_count) = right[split + 1];
             if left.1 == 0 || right_count == 0 {
                 continue;
@@ -512,10 +546,8 @@ fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
     if items.len() <= MAX_LEAF && leaf_cost <= split_cost {
         return leaf();
     }
-    let side =
-        |range: std::ops::Range<usize>| bins[axis][range].iter().fold(Span::EMPTY, |s, b| s.union(b.0));
-    let (left_span, right_span) = (side(0..split + 1), side(split + 1..BINS));
-    let mid = partition(items, |item| bin_of(item.centroid, axis) <= split);
+    let (mid, left_span, right_span) =
+        partition(items, |item| bins_of(item.centroid)[axis] as usize <= split);
     let (left, right) = items.split_at_mut(mid);
     let children = if left.len() + right.len() > PARALLEL_BUILD {
         let (l, r) =
@@ -524,7 +556,7 @@ fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
     } else {
         [build_node(left, first, left_span), build_node(right, first + mid, right_span)]
     };
-    BuildNode::Interior { bounds, children: Box::new(children) }
+    BuildNode::interior(bounds, children)
 }
 
 /// Splits items with identical centroids into halves by count.
@@ -533,64 +565,99 @@ fn median_split(items: &mut [BuildItem], first: usize, bounds: Bounds) -> BuildN
     let (left, right) = items.split_at_mut(mid);
     let (left_span, right_span) = (Span::of(left), Span::of(right));
     let children = [build_node(left, first, left_span), build_node(right, first + mid, right_span)];
-    BuildNode::Interior { bounds, children: Box::new(children) }
+    BuildNode::interior(bounds, children)
 }
 
-/// Moves the items for which `goes_left` holds to the front; returns how many.
-fn partition(items: &mut [BuildItem], goes_left: impl Fn(&BuildItem) -> bool) -> usize {
-    let mut mid = 0;
+/// Moves the items for which `goes_left` holds to the front; returns how
+/// many, and the spans of the two sides.
+fn partition(items: &mut [BuildItem], goes_left: impl Fn(&BuildItem) -> bool) -> (usize, Span, Span) {
+    let (mut mid, mut left, mut right) = (0, Span::EMPTY, Span::EMPTY);
     for i in 0..items.len() {
         if goes_left(&items[i]) {
+            left = left.add(&items[i]);
             items.swap(i, mid);
             mid += 1;
+        } else {
+            right = right.add(&items[i]);
         }
     }
-    mid
+    (mid, left, right)
 }
 
-/// Appends the node of up to four children that stands for `node` (a leaf
-/// root becomes a node of one child), then their subtrees depth-first;
-/// returns its index. The children are `node`'s two, with the interior one
-/// of largest area replaced by its own two while fewer than four.
-fn collapse(node: &BuildNode, nodes: &mut Vec<Node>) -> usize {
-    let mut children: Vec<&BuildNode> = match node {
-        BuildNode::Leaf { .. } => vec![node],
-        BuildNode::Interior { children, .. } => vec![&children[0], &children[1]],
-    };
-    while children.len() < WIDTH {
-        let largest = (0..children.len())
-            .filter(|&i| matches!(children[i], BuildNode::Interior { .. }))
-            .max_by(|&a, &b| children[a].bounds().half_area().total_cmp(&children[b].bounds().half_area()));
+/// The children of the node of four that stands for a binary node with
+/// children `two`, and how many of the four are used: `two`, with the
+/// interior one of largest area replaced by its own two while fewer than
+/// four (of equal areas, the last).
+fn lanes(two: &[BuildNode; 2]) -> ([&BuildNode; WIDTH], usize) {
+    let mut lanes = [&two[0], &two[1], &two[1], &two[1]];
+    let mut used = 2;
+    while used < WIDTH {
+        let largest = (0..used)
+            .filter(|&i| matches!(lanes[i], BuildNode::Interior { .. }))
+            .max_by(|&a, &b| lanes[a].bounds().half_area().total_cmp(&lanes[b].bounds().half_area()));
         let Some(i) = largest else { break };
-        let BuildNode::Interior { children: two, .. } = children[i] else { unreachable!("filtered") };
-        children[i] = &two[0];
-        children.insert(i + 1, &two[1]);
+        let BuildNode::Interior { children: pair, .. } = lanes[i] else { unreachable!("filtered") };
+        lanes.copy_within(i + 1..used, i + 2);
+        lanes[i] = &pair[0];
+        lanes[i + 1] = &pair[1];
+        used += 1;
     }
-    let index = nodes.len();
-    let mut record = Node {
-        min: [Vec4::INFINITY; 3],
-        max: [Vec4::NEG_INFINITY; 3],
-        child: [0; WIDTH],
-        count: [0; WIDTH],
-        children: children.len() as u8,
+    (lanes, used)
+}
+
+/// The nodes of four for the tree under `root`, depth first: each node,
+/// then its children's subtrees in lane order.
+fn collapse(root: &BuildNode) -> Vec<Node> {
+    let mut nodes = vec![Node::UNUSED; root.collapsed().max(1)];
+    let root_lanes = match root {
+        BuildNode::Leaf { .. } => ([root; WIDTH], 1),
+        BuildNode::Interior { children, .. } => lanes(children),
     };
-    for (lane, child) in children.iter().enumerate() {
+    collapse_into(root_lanes, &mut nodes, 0);
+    nodes
+}
+
+/// A binary node's two children, the part of the node array their
+/// collapsed subtree goes to, and the index of that part's first node.
+type Subtree<'a> = (&'a [BuildNode; 2], &'a mut [Node], usize);
+
+/// Writes the node of four with `children` (the first `used`) to `out[0]` and their
+/// subtrees after it; `out` is exactly as long as they need and starts at
+/// node `base` of the whole array. Large subtrees are written in parallel,
+/// each into its own part of `out`, so the array is the same whatever the
+/// threads.
+fn collapse_into((children, used): ([&BuildNode; WIDTH], usize), out: &mut [Node], base: usize) {
+    let parallel = out.len() > PARALLEL_BUILD / MAX_LEAF;
+    let Some((record, mut rest)) = out.split_first_mut() else { unreachable!("sized by `collapsed`") };
+    *record = Node { children: used as u8, ..Node::UNUSED };
+    let mut subtrees: [Option<Subtree>; WIDTH] = [None, None, None, None];
+    let mut next = base + 1;
+    for (lane, child) in children[..used].iter().enumerate() {
         let b = child.bounds();
         for axis in 0..3 {
             record.min[axis][lane] = b.min[axis];
             record.max[axis][lane] = b.max[axis];
         }
+        match child {
+            BuildNode::Leaf { first, count, .. } => {
+                record.child[lane] = *first as u32;
+                record.count[lane] = *count as u16;
+            }
+            BuildNode::Interior { children: two, collapsed, .. } => {
+                let (part, tail) = std::mem::take(&mut rest).split_at_mut(*collapsed);
+                rest = tail;
+                record.child[lane] = next as u32;
+                subtrees[lane] = Some((two, part, next));
+                next += collapsed;
+            }
+        }
     }
-    nodes.push(record);
-    for (lane, child) in children.iter().enumerate() {
-        let (target, count) = match child {
-            BuildNode::Leaf { first, count, .. } => (*first, *count as u16),
-            BuildNode::Interior { .. } => (collapse(child, nodes), 0),
-        };
-        nodes[index].child[lane] = target as u32;
-        nodes[index].count[lane] = count;
+    let write = |(two, part, at): Subtree| collapse_into(lanes(two), part, at);
+    if parallel {
+        subtrees.into_par_iter().flatten().for_each(write);
+    } else {
+        subtrees.into_iter().flatten().for_each(write);
     }
-    index
 }
 
 #[cfg(test)]
@@ -630,6 +697,64 @@ mod tests {
             let test = WatertightRay::new(&ray);
             assert!(test.intersect(&a, 9.0).is_some() || test.intersect(&b, 9.0).is_some(), "leak at {x}");
         }
+    }
+
+    #[test]
+    fn the_tree_is_the_same_whatever_the_threads() {
+        // Enough small scattered triangles that the build and the collapse
+        // both split their work across threads.
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut positions = Vec::new();
+        for _ in 0..3 * 40_000 {
+            let corner = Vec3::new(next(), next(), next()) * 100.0;
+            positions.push(corner);
+            positions.push(corner + Vec3::new(next(), next(), 0.0));
+            positions.push(corner + Vec3::new(0.0, next(), next()));
+        }
+        let indices: Vec<[u32; 3]> =
+            (0..positions.len() as u32 / 3).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+        let build = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| Bvh::build(&[TriangleView::new(&positions, &indices)]))
+        };
+        let (one, two) = (build(1), build(2));
+        assert!(
+            one.nodes.len() > PARALLEL_BUILD / MAX_LEAF,
+            "{} nodes: too few to split the collapse",
+            one.nodes.len()
+        );
+        assert_eq!(one.nodes.len(), two.nodes.len());
+        for (a, b) in one.nodes.iter().zip(&two.nodes) {
+            assert_eq!((a.child, a.count, a.children), (b.child, b.count, b.children));
+            for axis in 0..3 {
+                assert_eq!(
+                    a.min[axis].to_array().map(f32::to_bits),
+                    b.min[axis].to_array().map(f32::to_bits)
+                );
+                assert_eq!(
+                    a.max[axis].to_array().map(f32::to_bits),
+                    b.max[axis].to_array().map(f32::to_bits)
+                );
+            }
+        }
+        let ids = |bvh: &Bvh| bvh.triangles.iter().map(|t| t.prim_id).collect::<Vec<_>>();
+        assert_eq!(ids(&one), ids(&two));
+        // Every interior lane points past its node, and every node is reached once.
+        let mut reached = vec![0u32; one.nodes.len()];
+        reached[0] = 1;
+        for (i, node) in one.nodes.iter().enumerate() {
+            for lane in 0..node.children as usize {
+                if node.count[lane] == 0 {
+                    assert!(node.child[lane] as usize > i);
+                    reached[node.child[lane] as usize] += 1;
+                }
+            }
+        }
+        assert!(reached.iter().all(|&r| r == 1));
     }
 
     #[test]
