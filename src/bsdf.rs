@@ -129,6 +129,14 @@ impl<'a> Bsdf<'a> {
         pdf
     }
 
+    /// The density the other way round: with which [`Bsdf::sample`], for
+    /// light arriving back along `wi` (unit, away from the surface), would
+    /// produce the direction towards this viewer. Bidirectional methods
+    /// weigh a path by how each of its ends could have made it.
+    pub fn pdf_reverse(&self, wi: Vec3) -> f32 {
+        Bsdf { dir: -wi, ..*self }.pdf(self.wo())
+    }
+
     /// Picks a lobe with `u_lobe` (uniform in `[0, 1)`) in proportion to its
     /// reflectance, then a direction from it with `rng`. Smooth lobes are
     /// sampled as one mixture (their weight is `f cos / pdf` over both), so
@@ -290,15 +298,20 @@ mod tests {
         assert!((w - Vec3::splat(0.9)).abs().max_element() < 0.01, "{w}");
     }
 
-    #[test]
-    fn pdf_integrates_to_the_smooth_choice() {
-        let m = Material {
+    /// Diffuse, glossy and mirror in equal parts.
+    fn thirds() -> Material {
+        Material {
             diffuse: Vec3::splat(0.3),
             specular: Vec3::splat(0.3),
             phong_exponent: 10.0,
             mirror: Vec3::splat(0.3),
             ..Material::default()
-        };
+        }
+    }
+
+    #[test]
+    fn pdf_integrates_to_the_smooth_choice() {
+        let m = thirds();
         let sp = point();
         let bsdf = Bsdf::new(&m, &sp, -Vec3::Y);
         // Midpoint rule over the upper hemisphere in (cos theta, phi).
@@ -315,6 +328,23 @@ mod tests {
         integral *= std::f32::consts::TAU / (nt * np) as f32;
         assert!((integral - bsdf.smooth_probability()).abs() < 2e-3, "{integral}");
         assert!((bsdf.smooth_probability() - 2.0 / 3.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn reverse_pdf_swaps_the_directions() {
+        let m = thirds();
+        let sp = point();
+        let wo = Vec3::new(0.3, 0.8, -0.2).normalize();
+        let wi = Vec3::new(-0.5, 0.6, 0.4).normalize();
+        let seen = Bsdf::new(&m, &sp, -wo);
+        let other_way = Bsdf::new(&m, &sp, -wi);
+        assert!((seen.pdf_reverse(wi) - other_way.pdf(wo)).abs() < 1e-6);
+        // Diffuse alone: the cosine of the direction produced, over pi,
+        // times the chance of the diffuse lobe.
+        let diffuse = Material { diffuse: Vec3::splat(0.5), mirror: Vec3::splat(0.5), ..Material::default() };
+        let expected = 0.5 * wo.dot(sp.ns) * std::f32::consts::FRAC_1_PI;
+        assert!((Bsdf::new(&diffuse, &sp, -wo).pdf_reverse(wi) - expected).abs() < 1e-6);
+        assert!((Bsdf::new(&diffuse, &sp, -wo).pdf(wi) - expected).abs() > 1e-3, "asymmetric case");
     }
 
     #[test]

@@ -74,6 +74,16 @@ integrator_kinds! {
     /// Stochastic progressive photon mapping: passes of camera paths and
     /// photons with a shrinking radius, converging to the exact image.
     Sppm = "sppm",
+    /// Vertex connection and merging: bidirectional path tracing and photon
+    /// merging weighted against each other, with a shrinking radius.
+    Vcm = "vcm",
+    /// Bidirectional path tracing: every connection of a camera and a light
+    /// subpath, weighted by multiple importance sampling. Unbiased.
+    Bdpt = "bdpt",
+    /// Light tracing: light subpaths connected to the camera (and the lights
+    /// the camera sees directly). Unbiased, but blind to lights seen in
+    /// mirrors or through glass.
+    Light = "light",
     /// Whitted ray tracing: direct light, mirrors, refraction with Fresnel.
     Whitted = "whitted",
     /// The unbiased reference: path tracing with next-event estimation and

@@ -23,6 +23,22 @@ pub struct LightSample {
     pub irradiance: Vec3,
 }
 
+/// How likely the sampling routines are to make one light vertex, for
+/// bidirectional methods ([`Light::emission_pdfs`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EmissionPdfs {
+    /// Density per unit area with which [`Light::sample_incident`] picks the
+    /// point (1 for point and spot lights, whose point is certain).
+    pub direct_area: f32,
+    /// Density of [`Light::emit`] leaving from the point along the
+    /// direction: per unit area times per unit solid angle (per solid angle
+    /// alone for point and spot lights). 0 where nothing is emitted.
+    pub emit: f32,
+    /// Cosine between the direction and the light's normal (1 for point
+    /// and spot lights); 0 behind an area light.
+    pub cos: f32,
+}
+
 /// A light source.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Light {
@@ -185,6 +201,29 @@ impl Light {
         (d2 / (area * cos_l)) as f32
     }
 
+    /// The densities with which a light vertex leaving along the unit
+    /// direction `dir` is made, for bidirectional methods' multiple
+    /// importance sampling (where on an area light does not matter: its
+    /// points are uniform).
+    pub fn emission_pdfs(&self, dir: Vec3) -> EmissionPdfs {
+        match *self {
+            Light::Point { .. } => EmissionPdfs { direct_area: 1.0, emit: 1.0 / (4.0 * PI), cos: 1.0 },
+            Light::Spot { direction, cone_angle, .. } => {
+                let one_minus_cos = numeric::one_minus_cos(cone_angle);
+                let inside = numeric::one_minus_cos_between(direction, dir) <= one_minus_cos;
+                let emit = if inside { 1.0 / (2.0 * PI * one_minus_cos) } else { 0.0 };
+                EmissionPdfs { direct_area: 1.0, emit, cos: 1.0 }
+            }
+            Light::Area { u, v, .. } => {
+                let (normal, area) = area_face(u, v);
+                let cos = normal.dot(dir);
+                let direct_area = (1.0 / area) as f32;
+                let emit = if cos > 0.0 { direct_area * cos * std::f32::consts::FRAC_1_PI } else { 0.0 };
+                EmissionPdfs { direct_area, emit, cos: cos.max(0.0) }
+            }
+        }
+    }
+
     /// A short description for `caustix info`, with positions in the
     /// coordinates of a scene whose origin is `origin` (the scene file's).
     pub fn describe(&self, origin: glam::DVec3) -> String {
@@ -282,6 +321,46 @@ mod tests {
         assert!((estimate / analytic - 1.0).abs() < 1e-3, "{estimate} vs {analytic}");
         // Behind the light: nothing.
         assert!(light.sample_incident(Vec3::Y * 2.0, Vec2::splat(0.5)).is_none());
+    }
+
+    /// The emission density over all directions integrates to the density
+    /// of the point (1/area, or 1 for point and spot lights); each emitted
+    /// photon's weight is the emitted radiance (or intensity) over it.
+    #[test]
+    fn emission_densities_match_the_sampling() {
+        let lights = [
+            Light::Point { position: Vec3::ZERO, power: Vec3::splat(7.0) },
+            Light::Spot {
+                position: Vec3::ZERO,
+                direction: Vec3::new(0.0, -1.0, 0.2).normalize(),
+                cone_angle: 0.6,
+                falloff_start: 0.3,
+                power: Vec3::splat(3.0),
+            },
+            Light::Area { center: Vec3::ONE, u: Vec3::X * 0.5, v: Vec3::Z * 2.0, power: Vec3::splat(5.0) },
+        ];
+        let mut rng = Rng::new(4, 0);
+        for light in &lights {
+            let n = 400_000;
+            let integral = (0..n)
+                .map(|_| light.emission_pdfs(uniform_sphere(rng.uniform2())).emit * 4.0 * PI)
+                .sum::<f32>()
+                / n as f32;
+            let direct = light.emission_pdfs(Vec3::Y).direct_area;
+            assert!((integral / direct - 1.0).abs() < 0.01, "{light:?}: {integral} vs {direct}");
+            for _ in 0..100 {
+                let (ray, weight) = light.emit(rng.uniform2(), rng.uniform2());
+                let pdfs = light.emission_pdfs(ray.dir);
+                let emitted = match light.intensity(ray.dir) {
+                    Some((_, intensity)) => intensity,
+                    // Radiance power / (pi area), the area 0.5 x 2 = 1, times the cosine.
+                    None => light.power() / PI * pdfs.cos,
+                };
+                assert!(pdfs.emit > 0.0, "{light:?}: emitted where the density is 0");
+                let expected = emitted / pdfs.emit;
+                assert!((weight - expected).abs().max_element() < 1e-3 * expected.max_element(), "{light:?}");
+            }
+        }
     }
 
     #[test]

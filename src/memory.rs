@@ -56,6 +56,13 @@ impl Estimate {
             IntegratorKind::Sppm => {
                 (pixels * (FILM_BYTES_PER_PIXEL + SPPM_BYTES_PER_PIXEL), p.sppm.photons_per_pass as u64 * 64)
             }
+            // One pass's light vertices (one light subpath per pixel of
+            // the whole image), and the film's sums.
+            IntegratorKind::Vcm | IntegratorKind::Bdpt => {
+                let light_paths = config.width as u64 * config.height as u64;
+                let vertices = light_paths * crate::integrator::vcm::VERTICES_PER_LIGHT_PATH;
+                (pixels * 2 * FILM_BYTES_PER_PIXEL, vertices * crate::integrator::vcm::LIGHT_VERTEX_BYTES)
+            }
             _ => (pixels * FILM_BYTES_PER_PIXEL, 0),
         };
         Estimate { film, photons }

@@ -217,7 +217,7 @@ fn no_light_leaks_out_of_a_closed_shell() {
         v = [0, 0, -10]
         material = "grey"
     "#;
-    for integrator in ["photon", "sppm", "path"] {
+    for integrator in ["photon", "sppm", "path", "vcm"] {
         let img = render_text(text, integrator, |c| {
             c.photons.global_photons = 50_000;
             c.photons.caustic_photons = 0;

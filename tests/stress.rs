@@ -140,7 +140,7 @@ fn acne_and_leaks(img: &Image, reference: &Image, other_seed: &Image) -> usize {
 
 fn sweep(placements: &[(f64, f64)]) {
     let reference_scene = scene(1.0, 0.0);
-    for integrator in ["whitted", "path", "photon", "sppm"] {
+    for integrator in ["whitted", "path", "photon", "sppm", "vcm"] {
         for backend in [Backend::Embree, Backend::Native] {
             let reference = render(&reference_scene, integrator, backend, 0);
             let other_seed = render(&reference_scene, integrator, backend, 1);
@@ -216,7 +216,7 @@ fn hostile_scenes_render_finite_images() {
     ];
     for (i, body) in scenes.iter().enumerate() {
         let scene = Scene::from_toml(&format!("{camera}{body}"), Path::new("hostile.toml")).unwrap();
-        for integrator in ["whitted", "path", "photon", "sppm", "normals", "depth"] {
+        for integrator in ["whitted", "path", "photon", "sppm", "vcm", "bdpt", "light", "normals", "depth"] {
             for backend in [Backend::Embree, Backend::Native] {
                 let accel = caustix::accel::build(backend, &scene.triangle_views()).unwrap();
                 let config = RenderConfig { integrator: integrator.parse().unwrap(), ..scene.config.clone() };

@@ -99,6 +99,7 @@ pub fn budget(base: &RenderConfig, integrator: Integrator, level: u32, levels: u
     let mut s = RenderConfig { integrator, ..base.clone() };
     match integrator {
         Integrator::Path => s.samples = 16 * m,
+        Integrator::Vcm | Integrator::Bdpt | Integrator::Light => s.samples = 4 * m,
         Integrator::Photon => {
             s.samples = m;
             s.photons.gather_rays = 16;
@@ -117,6 +118,7 @@ fn describe(s: &RenderConfig) -> String {
     let p = &s.photons;
     match s.integrator {
         Integrator::Path => format!("{} spp", s.samples),
+        Integrator::Vcm | Integrator::Bdpt | Integrator::Light => format!("{} passes", s.samples),
         Integrator::Photon => format!(
             "{} spp, {} gather rays each, {} global + {} caustic photons",
             s.samples, p.gather_rays, p.global_photons, p.caustic_photons

@@ -11,6 +11,7 @@ pub mod photon;
 pub mod pixels;
 pub mod preview;
 pub mod sppm;
+pub mod vcm;
 pub mod whitted;
 
 use std::time::{Duration, Instant};
@@ -123,6 +124,9 @@ pub fn create(kind: IntegratorKind) -> Box<dyn Integrator> {
     match kind {
         IntegratorKind::Photon => Box::new(photon::PhotonMapping),
         IntegratorKind::Sppm => Box::new(sppm::Sppm),
+        IntegratorKind::Vcm => Box::new(vcm::Vcm(vcm::Mode::VertexMerging)),
+        IntegratorKind::Bdpt => Box::new(vcm::Vcm(vcm::Mode::Bidirectional)),
+        IntegratorKind::Light => Box::new(vcm::Vcm(vcm::Mode::LightTracing)),
         IntegratorKind::Whitted => Box::new(whitted::Whitted),
         IntegratorKind::Path => Box::new(path::PathTracer),
         IntegratorKind::Normals => Box::new(preview::Preview::Normals),

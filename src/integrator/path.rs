@@ -42,7 +42,7 @@ impl Integrator for PathTracer {
 /// Which component light found at a path vertex belongs to (see [`Sample`]),
 /// from the diffuse or glossy vertices the path has passed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum PathClass {
+pub(super) enum PathClass {
     /// Only mirrors and glass since the camera.
     Specular,
     /// One diffuse or glossy vertex, and nothing after it yet.
@@ -56,7 +56,7 @@ enum PathClass {
 impl PathClass {
     /// The component that light from a light source, reached by the path
     /// as it is now, adds to.
-    fn slot(self, out: &mut Sample) -> &mut Vec3 {
+    pub(super) fn slot(self, out: &mut Sample) -> &mut Vec3 {
         match self {
             PathClass::Specular => &mut out.emission,
             PathClass::JustScattered => &mut out.direct,
@@ -66,7 +66,7 @@ impl PathClass {
     }
 
     /// The class after a bounce of the given kind.
-    fn after(self, specular: bool) -> PathClass {
+    pub(super) fn after(self, specular: bool) -> PathClass {
         match (self, specular) {
             (PathClass::Specular, true) => PathClass::Specular,
             (PathClass::Specular, false) => PathClass::JustScattered,

@@ -53,6 +53,30 @@ impl Camera {
         let sy = scale * (0.5 * height as f32 - y);
         Ray::new(self.eye, (sx * self.u + sy * self.v - self.w).normalize())
     }
+
+    /// Distance from the pinhole to the image plane in pixels, for an image
+    /// `height` pixels high: a pixel there is a unit square.
+    pub fn image_distance(&self, height: u32) -> f32 {
+        0.5 * height as f32 / self.tan_half_fov
+    }
+
+    /// Where `p` appears on a `width x height` image, in pixels from the
+    /// top-left corner as [`Camera::ray`] takes them (the inverse of it), with
+    /// the cosine between the view axis and the direction from the eye to
+    /// `p`; `None` when `p` is behind the camera or outside the image.
+    pub fn project(&self, p: Vec3, width: u32, height: u32) -> Option<(glam::Vec2, f32)> {
+        let to = p - self.eye;
+        let depth = -to.dot(self.w);
+        let length = to.length();
+        if !(depth > 0.0 && length > 0.0) {
+            return None;
+        }
+        let scale = self.image_distance(height) / depth;
+        let x = 0.5 * width as f32 + to.dot(self.u) * scale;
+        let y = 0.5 * height as f32 - to.dot(self.v) * scale;
+        let inside = (0.0..width as f32).contains(&x) && (0.0..height as f32).contains(&y);
+        inside.then_some((glam::Vec2::new(x, y), depth / length))
+    }
 }
 
 #[cfg(test)]
@@ -90,6 +114,26 @@ mod tests {
         let top = c.ray(50.0, 0.0, 100, 100).dir;
         assert!((top.y - top.z.abs()).abs() < 1e-5 && top.y > 0.0);
         assert!(c.ray(100.0, 50.0, 100, 100).dir.x > 0.0);
+    }
+
+    #[test]
+    fn projection_inverts_the_camera_ray() {
+        let c = Camera::new(Vec3::new(1.0, 2.0, 5.0), Vec3::new(0.2, 0.1, -1.0), Vec3::Y, 50.0).unwrap();
+        let (w, h) = (160, 90);
+        for (x, y) in [(0.5, 0.5), (80.0, 45.0), (159.2, 3.7), (12.0, 88.9)] {
+            let ray = c.ray(x, y, w, h);
+            let (pixel, cos) = c.project(ray.at(7.5), w, h).unwrap();
+            assert!((pixel.x - x).abs() < 1e-3 && (pixel.y - y).abs() < 1e-3, "{pixel} vs ({x}, {y})");
+            assert!((cos - ray.dir.dot(-c.w)).abs() < 1e-6);
+        }
+        // A pixel is a unit square at the image distance: the ray through
+        // the centre is perpendicular to it there.
+        let centre = c.ray(80.0, 45.0, w, h).dir;
+        let next = c.ray(81.0, 45.0, w, h).dir;
+        let d = c.image_distance(h);
+        assert!(((next / next.dot(centre) - centre) * d).length() - 1.0 < 1e-3);
+        assert!(c.project(c.eye + c.w, w, h).is_none(), "behind the camera");
+        assert!(c.project(c.ray(-1.0, 10.0, w, h).at(3.0), w, h).is_none(), "left of the image");
     }
 
     #[test]
