@@ -11,9 +11,9 @@ pub struct Grid {
     radius2: f32,
     /// `starts[b]..starts[b + 1]` index `points` for bucket `b`.
     starts: Vec<u32>,
-    /// Point indices, bucket by bucket.
-    points: Vec<u32>,
-    positions: Vec<Vec3>,
+    /// The points with their indices, bucket by bucket (side by side, so a
+    /// bucket is read in one sweep).
+    points: Vec<(Vec3, u32)>,
 }
 
 impl Grid {
@@ -26,11 +26,10 @@ impl Grid {
             inverse_cell: 0.5 / radius,
             radius2: radius * radius,
             starts: vec![0; buckets + 1],
-            points: vec![0; positions.len()],
-            positions,
+            points: vec![(Vec3::ZERO, 0); positions.len()],
         };
         // A counting sort by bucket: the same grid whatever the threads.
-        let keys: Vec<usize> = grid.positions.iter().map(|&p| grid.bucket(grid.cell_of(p))).collect();
+        let keys: Vec<usize> = positions.iter().map(|&p| grid.bucket(grid.cell_of(p))).collect();
         for &b in &keys {
             grid.starts[b + 1] += 1;
         }
@@ -38,8 +37,8 @@ impl Grid {
             grid.starts[b + 1] += grid.starts[b];
         }
         let mut next = grid.starts.clone();
-        for (i, &b) in keys.iter().enumerate() {
-            grid.points[next[b] as usize] = i as u32;
+        for (i, (&b, &p)) in keys.iter().zip(&positions).enumerate() {
+            grid.points[next[b] as usize] = (p, i as u32);
             next[b] += 1;
         }
         grid
@@ -48,7 +47,7 @@ impl Grid {
     /// Calls `visit` with the index of every point within the radius of `p`
     /// (each once).
     pub fn visit(&self, p: Vec3, mut visit: impl FnMut(usize)) {
-        if self.positions.is_empty() {
+        if self.points.is_empty() {
             return;
         }
         let r = 0.5 / self.inverse_cell;
@@ -68,8 +67,8 @@ impl Grid {
                     }
                     seen[n] = b;
                     n += 1;
-                    for &i in &self.points[self.starts[b] as usize..self.starts[b + 1] as usize] {
-                        if (self.positions[i as usize] - p).length_squared() <= self.radius2 {
+                    for &(q, i) in &self.points[self.starts[b] as usize..self.starts[b + 1] as usize] {
+                        if (q - p).length_squared() <= self.radius2 {
                             visit(i as usize);
                         }
                     }

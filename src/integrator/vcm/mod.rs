@@ -59,9 +59,22 @@ pub enum Mode {
 /// The integrator, in one of its modes.
 pub struct Vcm(pub Mode);
 
-/// The merging radius before the first pass, as a fraction of the scene's
-/// diagonal (unless `[photons.sppm] initial_radius` says otherwise).
-const RADIUS_FRACTION: f32 = 0.002;
+/// The merging radius before the first pass, in pixels' footprints at the
+/// distance of the scene's centre (unless `[photons.sppm] initial_radius`
+/// says otherwise).
+const RADIUS_PIXELS: f32 = 1.5;
+
+/// [`RADIUS_PIXELS`] footprints: as many light vertices fall within the
+/// radius at any image size, as there is one light subpath per pixel.
+/// Measured at 128 x 128 within 5 s (BENCHMARKS.md): 0.75, 1.5 and 3
+/// pixels give RMSE 0.085, 0.080 and 0.084 on the caustics scene, 0.106,
+/// 0.105 and 0.106 on the Cornell box.
+fn default_radius(ctx: &Context) -> f32 {
+    let scene = ctx.scene();
+    let b = scene.bounds();
+    let distance = (0.5 * (b.min + b.max) - scene.camera.eye).length().max(1e-3 * ctx.diagonal);
+    RADIUS_PIXELS * distance / scene.camera.image_distance(ctx.config.height)
+}
 
 /// Light subpaths traced per task.
 const LIGHT_CHUNK: usize = 1024;
@@ -202,7 +215,7 @@ struct Pass {
 impl Pass {
     fn new(ctx: &Context, mode: Mode, index: u32) -> Pass {
         let c = ctx.config;
-        let base = c.photons.sppm.initial_radius.unwrap_or(RADIUS_FRACTION * ctx.diagonal);
+        let base = c.photons.sppm.initial_radius.unwrap_or_else(|| default_radius(ctx));
         let radius = base / ((index + 1) as f32).powf(0.5 * (1.0 - c.photons.sppm.alpha));
         let light_paths = c.width as f32 * c.height as f32;
         let eta = std::f32::consts::PI * radius * radius * light_paths;
