@@ -70,11 +70,15 @@ fn agrees_with_the_path_tracer_on_glass_and_a_mirror() {
     for integrator in [Integrator::Bdpt, Integrator::Vcm] {
         let film = render_with(&scene, integrator, 256, 32).film;
         // Each component: the paths are sorted the same way, whichever
-        // technique made them. The caustic is the noisiest: at this size and
-        // 256 passes its mean came out -3.5%, -2.5% and +2.6% off the path
-        // tracer's at 8192 spp for seeds 0, 1 and 3 (and -0.5% at 128 x 128).
+        // technique made them. The caustic is the slowest to converge
+        // without merging (its rare camera paths through the glass to the
+        // light are large): bidirectional path tracing's mean at this size
+        // came out -8.0% and -3.1% off the path tracer's at 256 passes (seeds
+        // 0 and 1), -3.3% and -2.8% at 1024, -0.9% and +0.3% at 4096; VCM's
+        // -1.7% at 256.
+        let caustic = if integrator == Integrator::Bdpt { 0.12 } else { 0.05 };
         for (aov, tolerance) in
-            [(Aov::Emission, 0.02), (Aov::Direct, 0.02), (Aov::Caustic, 0.08), (Aov::Indirect, 0.03)]
+            [(Aov::Emission, 0.02), (Aov::Direct, 0.02), (Aov::Caustic, caustic), (Aov::Indirect, 0.03)]
         {
             let (m, r) = (mean(&film.image(aov)), mean(&reference_film.image(aov)));
             eprintln!("{integrator:?} {aov:?}: {m:.5} vs {r:.5} ({:+.2}%)", 100.0 * (m / r - 1.0));

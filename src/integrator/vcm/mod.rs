@@ -30,7 +30,7 @@
 
 mod grid;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 
 use super::path::PathClass;
@@ -42,7 +42,7 @@ use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
 use crate::light::Light;
 use crate::query::{Interaction, RayCount, SurfacePoint};
-use crate::sampling::Rng;
+use crate::sampling::{Rng, SamplerKind};
 use grid::Grid;
 
 /// Which of the ways of joining subpaths a render uses.
@@ -324,9 +324,14 @@ impl Integrator for Vcm {
             let round = Context { samples: SampleRange { first: index, count: 1 }, ..*ctx };
             let (film, camera_rays) = render_pixels(&round, progress, |x, y, rng, count| {
                 let c = ctx.config;
+                let path = y as usize * c.width as usize + x as usize;
+                // The camera subpath draws from the pixel's stream, or with
+                // Sobol from pass `index`'s low-discrepancy point.
+                let mut sobol =
+                    (c.sampler == SamplerKind::Sobol).then(|| Rng::sobol(c.seed, path as u64, index));
+                let rng = sobol.as_mut().unwrap_or(rng);
                 let offset = rng.uniform2();
                 let ray = ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height);
-                let path = y as usize * c.width as usize + x as usize;
                 let vertices = &light.vertices[light.starts[path]..light.starts[path + 1]];
                 camera_path(
                     ctx,
@@ -611,7 +616,7 @@ fn next_event(
 ) -> Vec3 {
     let mut sum = Vec3::ZERO;
     for (light, &pick) in ctx.scene().lights.iter().zip(&pass.pick) {
-        let Some(sample) = light.sample_incident(sp.p, Vec2::new(rng.uniform(), rng.uniform())) else {
+        let Some(sample) = light.sample_incident(sp.p, rng.uniform2()) else {
             continue;
         };
         let to = sample.position - sp.p;
