@@ -37,8 +37,11 @@ pub const MESH_BYTES_PER_TRIANGLE: u64 = 72;
 pub struct Estimate {
     /// The film and its images.
     pub film: u64,
-    /// The photon maps (or one progressive pass's photons and grid).
+    /// The photon maps (or one progressive pass's photons and grid, or
+    /// one VCM pass's light vertices).
     pub photons: u64,
+    /// The setting that sizes `photons`, and what they are, for the error.
+    photons_setting: (&'static str, &'static str),
 }
 
 impl Estimate {
@@ -46,6 +49,7 @@ impl Estimate {
     pub fn of(scene: &Scene, config: &RenderConfig) -> Estimate {
         let pixels = config.pixels();
         let p = &config.photons;
+        let mut photons_setting = ("global_photons", "the photons");
         let (film, photons) = match config.integrator {
             IntegratorKind::Photon => {
                 let stored = p.global_photons as f64 * stores_per_photon(scene, p.max_bounces)
@@ -54,18 +58,20 @@ impl Estimate {
             }
             // One pass's splats, not a map: a few per photon.
             IntegratorKind::Sppm => {
+                photons_setting = ("pass_photons", "the photons of a pass");
                 (pixels * (FILM_BYTES_PER_PIXEL + SPPM_BYTES_PER_PIXEL), p.sppm.photons_per_pass as u64 * 64)
             }
             // One pass's light vertices (one light subpath per pixel of
             // the whole image), and the film's sums.
             IntegratorKind::Vcm | IntegratorKind::Bdpt => {
+                photons_setting = ("width", "the light vertices of a pass (a light subpath per pixel)");
                 let light_paths = config.width as u64 * config.height as u64;
                 let vertices = light_paths * crate::integrator::vcm::VERTICES_PER_LIGHT_PATH;
                 (pixels * 2 * FILM_BYTES_PER_PIXEL, vertices * crate::integrator::vcm::LIGHT_VERTEX_BYTES)
             }
             _ => (pixels * FILM_BYTES_PER_PIXEL, 0),
         };
-        Estimate { film, photons }
+        Estimate { film, photons, photons_setting }
     }
 
     /// Refuses the render if it would not fit in `available` bytes (when known).
@@ -78,7 +84,8 @@ impl Estimate {
         let (name, what) = if self.film >= self.photons {
             ("width", format!("the image needs about {:.1} GiB for its film", gib(self.film)))
         } else {
-            ("global_photons", format!("the photons need about {:.1} GiB", gib(self.photons)))
+            let (name, what) = self.photons_setting;
+            (name, format!("{what} need about {:.1} GiB", gib(self.photons)))
         };
         Err(Error::Setting {
             name,
@@ -131,6 +138,14 @@ mod tests {
         assert!(err.starts_with("global_photons is too large: the photons need about"), "{err}");
         // What the scene files ask for fits easily.
         Estimate::of(&scene, &scene.config).check(Some(1 << 30)).unwrap();
+        let vcm = RenderConfig {
+            integrator: IntegratorKind::Vcm,
+            width: 8000,
+            height: 8000,
+            ..scene.config.clone()
+        };
+        let err = Estimate::of(&scene, &vcm).check(Some(8 << 30)).unwrap_err().to_string();
+        assert!(err.starts_with("width is too large: the light vertices of a pass"), "{err}");
     }
 
     #[test]
