@@ -138,3 +138,24 @@ fn the_image_does_not_depend_on_the_threads() {
         .zip(&images[1])
         .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)));
 }
+
+/// The furnace from 1e-12 to 1e9 times the size (scenes go to 1e12), with
+/// the power scaled to keep the radiance: the weights (products of squared
+/// densities and distances) must not overflow or vanish. (With them in
+/// `f32`, the image at 1e-12 came out black.)
+#[test]
+fn the_furnace_comes_out_exact_at_any_scale() {
+    let albedo = 0.5;
+    let exact = albedo / PI * 100.0 / ((1.0 - albedo) * common::mesh_area(&common::furnace(albedo, "")));
+    for scale in [1e-12f64, 1e-6, 1e6, 1e9] {
+        let scene = common::furnace_scaled(albedo, scale, "");
+        for integrator in [Integrator::Bdpt, Integrator::Vcm] {
+            let m = mean(&render_with(&scene, integrator, 16, 16).film.beauty());
+            eprintln!(
+                "x{scale:e} {integrator:?}: mean {m:.5} vs exact {exact:.5} ({:+.2}%)",
+                100.0 * (m / exact - 1.0)
+            );
+            assert!((m / exact - 1.0).abs() < 0.02, "x{scale:e} {integrator:?}: {m} vs {exact}");
+        }
+    }
+}

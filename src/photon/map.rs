@@ -33,10 +33,16 @@ impl Photon {
     /// (a closed sphere over a floor) the parallel surface on the far side:
     /// neither holds light arriving here.
     pub fn lights_surface(&self, p: Vec3, n: Vec3, r: f32) -> bool {
-        self.incoming.dot(n) > 0.0
-            && self.normal.dot(n) >= 0.9
-            && (self.position - p).dot(n).abs() <= 0.25 * r
+        self.incoming.dot(n) > 0.0 && lands_near(self.position, self.normal, p, n, r)
     }
+}
+
+/// Whether light that landed at `at` on a surface whose unit normal there
+/// is `normal` (on the side it came from) is light on the surface at `p`
+/// (unit normal `n`) for a gathering of radius `r`: the surfaces face the
+/// same way and `at` lies within `r / 4` of the plane at `p`.
+pub fn lands_near(at: Vec3, normal: Vec3, p: Vec3, n: Vec3, r: f32) -> bool {
+    normal.dot(n) >= 0.9 && (at - p).dot(n).abs() <= 0.25 * r
 }
 
 /// Photons in a kd-tree, ready for nearest-neighbour queries.

@@ -32,24 +32,32 @@ pub fn caustix(args: &[&std::ffi::OsStr]) -> Output {
 /// light at its centre: the indirect irradiance is the same everywhere,
 /// `power * a / ((1 - a) area)`. `tables` adds TOML tables (image, photons).
 pub fn furnace(albedo: f32, tables: &str) -> caustix::scene::Scene {
+    furnace_scaled(albedo, 1.0, tables)
+}
+
+/// [`furnace`] `scale` times the size, with `scale^2` times the power: the
+/// same radiance.
+pub fn furnace_scaled(albedo: f32, scale: f64, tables: &str) -> caustix::scene::Scene {
     let text = format!(
         r#"
         [camera]
-        eye = [0, 0, 1]
+        eye = [0, 0, {scale:e}]
         look_at = [0, 0, 0]
         fov = 60
         [materials.grey]
         diffuse = {albedo}
         [[point_light]]
         position = [0, 0, 0]
-        power = 100
+        power = {power:e}
         [[sphere]]
         center = [0, 0, 0]
-        radius = 2
+        radius = {radius:e}
         subdivisions = 5
         material = "grey"
         {tables}
-    "#
+    "#,
+        power = 100.0 * scale * scale,
+        radius = 2.0 * scale,
     );
     caustix::scene::Scene::from_toml(&text, Path::new("furnace.toml")).unwrap()
 }

@@ -22,11 +22,11 @@
 //!
 //! Components as every integrator has them (by the diffuse or glossy
 //! vertices of the whole path and the mirrors and glass between, whichever
-//! way the path was made). Random
-//! numbers come from independent streams (per pixel and per light subpath,
-//! per pass), whatever the sampler setting. Light subpaths scatter with the
-//! same BSDF as camera subpaths (no adjoint correction for shading normals,
-//! as in the photon tracer).
+//! way the path was made). Camera subpaths draw their numbers as the path
+//! tracer does (with Sobol, pass `i` is the pixel's `i`-th point); light
+//! subpaths from independent streams, one per subpath and pass. Light
+//! subpaths scatter with the same BSDF as camera subpaths (no adjoint
+//! correction for shading normals, as in the photon tracer).
 
 mod grid;
 
@@ -41,6 +41,7 @@ use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
 use crate::light::Light;
+use crate::photon::map::lands_near;
 use crate::query::{Interaction, RayCount, SurfacePoint};
 use crate::sampling::{Rng, SamplerKind};
 use grid::Grid;
@@ -60,8 +61,8 @@ pub enum Mode {
 pub struct Vcm(pub Mode);
 
 /// The merging radius before the first pass, in pixels' footprints at the
-/// distance of the scene's centre (unless `[photons.sppm] initial_radius`
-/// says otherwise).
+/// distance of the scene's centre (unless `[photons] sppm_radius` says
+/// otherwise).
 const RADIUS_PIXELS: f32 = 1.5;
 
 /// [`RADIUS_PIXELS`] footprints: as many light vertices fall within the
@@ -88,8 +89,11 @@ pub const VERTICES_PER_LIGHT_PATH: u64 = 4;
 /// joined, and its place in the merging grid.
 pub const LIGHT_VERTEX_BYTES: u64 = 2 * std::mem::size_of::<LightVertex>() as u64 + 16;
 
-/// The power heuristic's weight of a density (ratio).
-fn mis(x: f32) -> f32 {
+/// The power heuristic's weight of a density (ratio), in `f64`: products
+/// of squared densities and distances leave `f32`'s range in scenes a
+/// millionth or a million units across.
+fn mis(x: f32) -> f64 {
+    let x = x as f64;
     x * x
 }
 
@@ -101,9 +105,9 @@ struct Subpath {
     throughput: Vec3,
     /// Segments so far.
     length: u32,
-    d_vcm: f32,
-    d_vc: f32,
-    d_vm: f32,
+    d_vcm: f64,
+    d_vc: f64,
+    d_vm: f64,
 }
 
 impl Subpath {
@@ -115,7 +119,7 @@ impl Subpath {
         if cos < 1e-12 || !distance.is_finite() {
             return false;
         }
-        self.d_vcm *= mis(distance * distance) / cos;
+        self.d_vcm *= mis(distance) * mis(distance) / cos;
         self.d_vc /= cos;
         self.d_vm /= cos;
         true
@@ -203,9 +207,9 @@ struct Pass {
     /// Light subpaths traced (one per pixel of the whole image).
     light_paths: f32,
     /// Merging's weight relative to a connection (`eta_VCM` under the heuristic); 0 without merging.
-    vm_weight: f32,
+    vm_weight: f64,
     /// A connection's weight relative to merging.
-    vc_weight: f32,
+    vc_weight: f64,
     /// `1 / (pi r^2 N)`: a merged light vertex's share of the density.
     vm_normalization: f32,
     /// Each light's chance of being chosen to start a light subpath: by power.
@@ -218,7 +222,7 @@ impl Pass {
         let base = c.photons.sppm.initial_radius.unwrap_or_else(|| default_radius(ctx));
         let radius = base / ((index + 1) as f32).powf(0.5 * (1.0 - c.photons.sppm.alpha));
         let light_paths = c.width as f32 * c.height as f32;
-        let eta = std::f32::consts::PI * radius * radius * light_paths;
+        let eta = std::f64::consts::PI * mis(radius) * light_paths as f64;
         let merging = mode == Mode::VertexMerging;
         let powers: Vec<f32> = ctx.scene().lights.iter().map(|l| l.power().element_sum().max(0.0)).collect();
         let total: f32 = powers.iter().sum();
@@ -226,9 +230,9 @@ impl Pass {
             mode,
             radius,
             light_paths,
-            vm_weight: if merging { mis(eta) } else { 0.0 },
-            vc_weight: if merging { mis(1.0 / eta) } else { 0.0 },
-            vm_normalization: 1.0 / eta,
+            vm_weight: if merging { eta * eta } else { 0.0 },
+            vc_weight: if merging { 1.0 / (eta * eta) } else { 0.0 },
+            vm_normalization: (1.0 / eta) as f32,
             pick: powers.iter().map(|p| if total > 0.0 { p / total } else { 0.0 }).collect(),
         }
     }
@@ -491,7 +495,7 @@ fn connect_to_camera(
         _ => {
             let w_light = mis(camera_area_pdf / pass.light_paths)
                 * (pass.vm_weight + path.d_vcm + path.d_vc * mis(lobes.reverse));
-            1.0 / (w_light + 1.0)
+            (1.0 / (w_light + 1.0)) as f32
         }
     };
     let value = path.throughput * lobes.f * (weight * camera_area_pdf / pass.light_paths);
@@ -541,7 +545,7 @@ fn camera_path(
                     if path.arrive(t * ray.dir.length(), pdfs.cos) {
                         let w_camera = mis(pdfs.direct_area) * path.d_vcm
                             + mis(pass.pick_of(lights, light) * pdfs.emit) * path.d_vc;
-                        *class.slot(&mut out) += finite(path.throughput * radiance / (1.0 + w_camera));
+                        *class.slot(&mut out) += finite(path.throughput * radiance / (1.0 + w_camera) as f32);
                     }
                 }
                 return out;
@@ -579,7 +583,11 @@ fn camera_path(
                 let scale = path.throughput * pass.vm_normalization;
                 grid.visit(sp.p, |i| {
                     let v = &all[i];
-                    if v.path.length + path.length > c.max_depth {
+                    // As photon estimates: not the other wall of a corner,
+                    // nor the far side of a thin shell.
+                    if v.path.length + path.length > c.max_depth
+                        || !lands_near(v.sp.p, v.sp.ns, sp.p, sp.ns, pass.radius)
+                    {
                         return;
                     }
                     let Some(lobes) = lobes(&bsdf, &sp, -v.dir) else { return };
@@ -592,7 +600,7 @@ fn camera_path(
                         _ => Component::Indirect,
                     };
                     *component.slot(&mut out) +=
-                        finite(scale * lobes.f * v.path.throughput / (w_light + 1.0 + w_camera));
+                        finite(scale * lobes.f * v.path.throughput / (w_light + 1.0 + w_camera) as f32);
                 });
             }
         }
@@ -634,7 +642,7 @@ fn next_event(
         let w_light = mis(by_bsdf / direct);
         let w_camera = mis(pick * pdfs.emit * lobes.cos / (direct * pdfs.cos))
             * (pass.vm_weight + path.d_vcm + path.d_vc * mis(lobes.reverse));
-        let value = lobes.f * sample.irradiance * (lobes.cos / (w_light + 1.0 + w_camera));
+        let value = lobes.f * sample.irradiance * (lobes.cos / (w_light + 1.0 + w_camera) as f32);
         if value != Vec3::ZERO
             && value.is_finite()
             && !ctx.query.occluded(&sp.spawn_to(sample.position), count)
@@ -670,7 +678,8 @@ fn connect(
         mis(camera_makes_light) * (pass.vm_weight + v.path.d_vcm + v.path.d_vc * mis(light_side.reverse));
     let w_camera =
         mis(light_makes_camera) * (pass.vm_weight + path.d_vcm + path.d_vc * mis(camera_side.reverse));
-    let value = camera_side.f * light_side.f * v.path.throughput * (geometry / (w_light + 1.0 + w_camera));
+    let value =
+        camera_side.f * light_side.f * v.path.throughput * (geometry / (w_light + 1.0 + w_camera) as f32);
     if finite(value) == Vec3::ZERO || ctx.query.occluded(&sp.spawn_to(v.sp.p), count) {
         return Vec3::ZERO;
     }
