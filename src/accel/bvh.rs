@@ -485,9 +485,10 @@ impl Span {
 /// Builds the subtree over `items` (which span `span`), the first of which
 /// is triangle `first` in leaf order.
 ///
-/// One pass over the items bins them on all three axes at once, each bin
-/// keeping its items' span, so the chosen split's two sides know their
-/// spans without another pass; a second pass partitions them.
+/// One pass over the items bins them on all three axes at once (each bin
+/// keeping its items' box and count); a second partitions them by the
+/// cheapest split and gathers the two sides' spans (boxes and centroid
+/// boxes) for their own builds.
 fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
     let (bounds, centroids) = (span.bounds.bounds(), span.centroids);
     let leaf = || BuildNode::Leaf { bounds, first, count: items.len() };
