@@ -197,7 +197,8 @@ fn every_integrator_splits_light_into_the_same_components() {
         (Aov::Albedo, 0.01),
         (Aov::Depth, 0.01),
     ];
-    for (name, settings) in [("photon", &photon), ("sppm", &sppm)] {
+    let vcm = RenderConfig { integrator: Integrator::Vcm, samples: 64, ..base.clone() };
+    for (name, settings) in [("photon", &photon), ("sppm", &sppm), ("vcm", &vcm)] {
         let film = film(&scene, settings);
         for (aov, tolerance) in tolerances {
             let (ours, theirs) = (whole_mean(&film.image(aov)), whole_mean(&reference.image(aov)));
