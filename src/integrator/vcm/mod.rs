@@ -205,7 +205,7 @@ struct Pass {
     mode: Mode,
     radius: f32,
     /// Light subpaths traced (one per pixel of the whole image).
-    light_paths: f32,
+    light_paths: usize,
     /// Merging's weight relative to a connection (`eta_VCM` under the heuristic); 0 without merging.
     vm_weight: f64,
     /// A connection's weight relative to merging.
@@ -221,7 +221,7 @@ impl Pass {
         let c = ctx.config;
         let base = c.photons.sppm.initial_radius.unwrap_or_else(|| default_radius(ctx));
         let radius = base / ((index + 1) as f32).powf(0.5 * (1.0 - c.photons.sppm.alpha));
-        let light_paths = c.width as f32 * c.height as f32;
+        let light_paths = c.width as usize * c.height as usize;
         let eta = std::f64::consts::PI * mis(radius) * light_paths as f64;
         let merging = mode == Mode::VertexMerging;
         let powers: Vec<f32> = ctx.scene().lights.iter().map(|l| l.power().element_sum().max(0.0)).collect();
@@ -369,7 +369,7 @@ impl Integrator for Vcm {
 /// Traces pass `index`'s light subpaths, in chunks on the threads, put
 /// together in order so the result does not depend on the threads.
 fn trace_light_paths(ctx: &Context, pass: &Pass, index: u32) -> LightPaths {
-    let n = pass.light_paths as usize;
+    let n = pass.light_paths;
     let keep = pass.mode != Mode::LightTracing;
     let seed = ctx.config.seed ^ 0xA076_1D64_78BD_642F;
     let chunks: Vec<LightPaths> = (0..n.div_ceil(LIGHT_CHUNK))
@@ -493,12 +493,12 @@ fn connect_to_camera(
     let weight = match pass.mode {
         Mode::LightTracing => 1.0,
         _ => {
-            let w_light = mis(camera_area_pdf / pass.light_paths)
+            let w_light = mis(camera_area_pdf / pass.light_paths as f32)
                 * (pass.vm_weight + path.d_vcm + path.d_vc * mis(lobes.reverse));
             (1.0 / (w_light + 1.0)) as f32
         }
     };
-    let value = path.throughput * lobes.f * (weight * camera_area_pdf / pass.light_paths);
+    let value = path.throughput * lobes.f * (weight * camera_area_pdf / pass.light_paths as f32);
     if finite(value) == Vec3::ZERO || ctx.query.occluded(&sp.spawn_to(camera.eye), rays) {
         return None;
     }
@@ -526,7 +526,7 @@ fn camera_path(
     let mut path = Subpath {
         throughput: Vec3::ONE,
         length: 1,
-        d_vcm: mis(pass.light_paths / camera_pdf),
+        d_vcm: mis(pass.light_paths as f32 / camera_pdf),
         d_vc: 0.0,
         d_vm: 0.0,
     };
