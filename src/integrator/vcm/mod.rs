@@ -203,6 +203,10 @@ fn lobes(bsdf: &Bsdf, sp: &SurfacePoint, wi: Vec3) -> Option<Lobes> {
 /// What one pass shares: its radius and the weights that depend on it.
 struct Pass {
     mode: Mode,
+    /// Most segments in a path: `max_depth` rays from the camera and the
+    /// connection to a light, as the path tracer's paths end with a
+    /// shadow ray after its last bounce.
+    max_length: u32,
     radius: f32,
     /// Light subpaths traced (one per pixel of the whole image).
     light_paths: usize,
@@ -228,6 +232,7 @@ impl Pass {
         let total: f32 = powers.iter().sum();
         Pass {
             mode,
+            max_length: c.max_depth + 1,
             radius,
             light_paths,
             vm_weight: if merging { eta * eta } else { 0.0 },
@@ -414,12 +419,14 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
     let lights = &ctx.scene().lights;
     let u = rng.uniform();
     let mut acc = 0.0;
-    let Some(chosen) = (0..lights.len()).find(|&i| {
-        acc += pass.pick[i];
-        u < acc && pass.pick[i] > 0.0
-    }) else {
-        return;
-    };
+    // (The sums may end a rounding short of 1: then the last light that emits.)
+    let chosen = (0..lights.len())
+        .find(|&i| {
+            acc += pass.pick[i];
+            u < acc && pass.pick[i] > 0.0
+        })
+        .or_else(|| (0..lights.len()).rev().find(|&i| pass.pick[i] > 0.0));
+    let Some(chosen) = chosen else { return };
     let (light, pick) = (&lights[chosen], pass.pick[chosen]);
     let (mut ray, power) = light.emit(rng.uniform2(), rng.uniform2());
     let pdfs = light.emission_pdfs(ray.dir);
@@ -452,7 +459,7 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
                 out.vertices.push(LightVertex { sp, dir, path, history });
             }
         }
-        if path.length + 2 > ctx.config.max_depth {
+        if path.length + 2 > pass.max_length {
             return;
         }
         let Some((next, specular)) = path.scatter(&bsdf, &sp, pass, rng) else { return };
@@ -566,7 +573,7 @@ fn camera_path(
             let m = bsdf.material();
             (out.albedo, out.normal) = (path.throughput * (m.diffuse + m.specular), sp.ns);
         }
-        if pass.mode == Mode::LightTracing || path.length >= c.max_depth {
+        if pass.mode == Mode::LightTracing || path.length >= pass.max_length {
             return out;
         }
         if bsdf.has_smooth() {
@@ -574,7 +581,7 @@ fn camera_path(
             let direct = next_event(ctx, pass, &sp, &bsdf, &path, rng, count);
             *class.after(false).slot(&mut out) += path.throughput * direct;
             for v in vertices {
-                if v.path.length + 1 + path.length > c.max_depth {
+                if v.path.length + 1 + path.length > pass.max_length {
                     break;
                 }
                 out.indirect += path.throughput * connect(ctx, pass, &sp, &bsdf, &path, v, count);
@@ -585,7 +592,7 @@ fn camera_path(
                     let v = &all[i];
                     // As photon estimates: not the other wall of a corner,
                     // nor the far side of a thin shell.
-                    if v.path.length + path.length > c.max_depth
+                    if v.path.length + path.length > pass.max_length
                         || !lands_near(v.sp.p, v.sp.ns, sp.p, sp.ns, pass.radius)
                     {
                         return;
