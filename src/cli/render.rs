@@ -32,7 +32,8 @@ pub struct RenderArgs {
     crop: Option<Region>,
     /// Refine for this many seconds instead of a fixed sample count: more
     /// camera samples (and gather rays) in rounds for the path tracer,
-    /// Whitted and photon mapping, more passes for SPPM (overrides [render] time).
+    /// Whitted and photon mapping, more passes for SPPM, VCM, BDPT and
+    /// light tracing (overrides [render] time).
     #[arg(long)]
     time: Option<f32>,
     /// With a time budget: write the output image (not denoised) each time
@@ -93,7 +94,8 @@ pub struct SettingArgs {
     /// Image height in pixels (overrides the scene file).
     #[arg(long)]
     height: Option<u32>,
-    /// Camera samples per pixel (overrides the scene file).
+    /// Camera samples per pixel (overrides the scene file); for VCM, BDPT
+    /// and light tracing, passes (one camera sample per pixel each).
     #[arg(long)]
     spp: Option<u32>,
     /// Longest chain of rays from the camera (overrides the scene file).
@@ -130,7 +132,8 @@ pub struct SettingArgs {
     /// Photons per pass of progressive photon mapping (overrides [photons] pass_photons).
     #[arg(long)]
     pass_photons: Option<u32>,
-    /// Starting radius of progressive photon mapping (overrides [photons] sppm_radius).
+    /// Starting radius of progressive photon mapping, and of VCM's merging
+    /// (overrides [photons] sppm_radius).
     #[arg(long)]
     sppm_radius: Option<f32>,
     /// Seed of every random stream: another seed, an independent image (default 0).
