@@ -129,7 +129,7 @@ pub struct ErrorArgs {
     #[arg(long)]
     reference: PathBuf,
     /// Integrators to measure (comma-separated).
-    #[arg(long, value_parser = named::<Integrator>(Integrator::ALL.iter().map(|k| k.name())), value_delimiter = ',', default_value = "path,photon,sppm")]
+    #[arg(long, value_parser = named::<Integrator>(Integrator::ALL.iter().map(|k| k.name())), value_delimiter = ',', default_value = "path,photon,sppm,vcm")]
     integrators: Vec<Integrator>,
     /// Budgets per integrator, each double the one before.
     #[arg(long, default_value_t = 6)]
@@ -348,10 +348,21 @@ fn bench_error(args: ErrorArgs) -> anyhow::Result<()> {
             integrators.push(*i);
         }
     }
-    if let Some(bad) =
-        integrators.iter().find(|i| !matches!(i, Integrator::Path | Integrator::Photon | Integrator::Sppm))
-    {
-        anyhow::bail!("--integrators: {} is not measured; choose from path, photon, sppm", error::name(*bad));
+    if let Some(bad) = integrators.iter().find(|i| {
+        !matches!(
+            i,
+            Integrator::Path
+                | Integrator::Photon
+                | Integrator::Sppm
+                | Integrator::Vcm
+                | Integrator::Bdpt
+                | Integrator::Light
+        )
+    }) {
+        anyhow::bail!(
+            "--integrators: {} is not measured; choose from path, photon, sppm, vcm, bdpt, light",
+            error::name(*bad)
+        );
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(worker_threads(args.threads)?)
