@@ -201,7 +201,7 @@ fn lobes(bsdf: &Bsdf, sp: &SurfacePoint, wi: Vec3) -> Option<Lobes> {
 }
 
 /// What one pass shares: its radius and the weights that depend on it.
-struct Pass {
+struct Pass<'a> {
     mode: Mode,
     /// Most segments in a path: `max_depth` rays from the camera and the
     /// connection to a light, as the path tracer's paths end with a
@@ -216,20 +216,19 @@ struct Pass {
     vc_weight: f64,
     /// `1 / (pi r^2 N)`: a merged light vertex's share of the density.
     vm_normalization: f32,
-    /// Each light's chance of being chosen to start a light subpath: by power.
-    pick: Vec<f32>,
+    /// Each light's chance of being chosen to start a light subpath.
+    pick: &'a [f32],
 }
 
-impl Pass {
-    fn new(ctx: &Context, mode: Mode, index: u32) -> Pass {
+impl<'a> Pass<'a> {
+    /// Pass `index` of a render whose merging radius starts at
+    /// `base_radius`, with lights chosen by `pick` ([`light_choice`]).
+    fn new(ctx: &Context, mode: Mode, index: u32, base_radius: f32, pick: &'a [f32]) -> Pass<'a> {
         let c = ctx.config;
-        let base = c.photons.sppm.initial_radius.unwrap_or_else(|| default_radius(ctx));
-        let radius = base / ((index + 1) as f32).powf(0.5 * (1.0 - c.photons.sppm.alpha));
+        let radius = base_radius / ((index + 1) as f32).powf(0.5 * (1.0 - c.photons.sppm.alpha));
         let light_paths = c.width as usize * c.height as usize;
         let eta = std::f64::consts::PI * mis(radius) * light_paths as f64;
         let merging = mode == Mode::VertexMerging;
-        let powers: Vec<f32> = ctx.scene().lights.iter().map(|l| l.power().element_sum().max(0.0)).collect();
-        let total: f32 = powers.iter().sum();
         Pass {
             mode,
             max_length: c.max_depth + 1,
@@ -238,13 +237,21 @@ impl Pass {
             vm_weight: if merging { eta * eta } else { 0.0 },
             vc_weight: if merging { 1.0 / (eta * eta) } else { 0.0 },
             vm_normalization: (1.0 / eta) as f32,
-            pick: powers.iter().map(|p| if total > 0.0 { p / total } else { 0.0 }).collect(),
+            pick,
         }
     }
 
     fn pick_of(&self, lights: &[Light], light: &Light) -> f32 {
         lights.iter().position(|l| std::ptr::eq(l, light)).map_or(0.0, |i| self.pick[i])
     }
+}
+
+/// Each light's chance of being chosen to start a light subpath: in
+/// proportion to its power.
+fn light_choice(lights: &[Light]) -> Vec<f32> {
+    let powers: Vec<f32> = lights.iter().map(|l| l.power().element_sum().max(0.0)).collect();
+    let total: f32 = powers.iter().sum();
+    powers.iter().map(|p| if total > 0.0 { p / total } else { 0.0 }).collect()
 }
 
 /// A light subpath's vertex on a surface with a smooth lobe.
@@ -324,8 +331,12 @@ impl Integrator for Vcm {
         let mut rays = RayCount::default();
         let mut radius = 0.0;
         let range = ctx.samples;
+        // What every pass shares, worked out once (the default radius walks
+        // the scene's vertices for its bounds).
+        let base_radius = ctx.config.photons.sppm.initial_radius.unwrap_or_else(|| default_radius(ctx));
+        let pick = light_choice(&ctx.scene().lights);
         for index in range.first..range.first + range.count {
-            let pass = Pass::new(ctx, self.0, index);
+            let pass = Pass::new(ctx, self.0, index, base_radius, &pick);
             radius = pass.radius;
             let light = trace_light_paths(ctx, &pass, index);
             let grid = (self.0 == Mode::VertexMerging)
@@ -630,7 +641,7 @@ fn next_event(
     count: &mut RayCount,
 ) -> Vec3 {
     let mut sum = Vec3::ZERO;
-    for (light, &pick) in ctx.scene().lights.iter().zip(&pass.pick) {
+    for (light, &pick) in ctx.scene().lights.iter().zip(pass.pick) {
         let Some(sample) = light.sample_incident(sp.p, rng.uniform2()) else {
             continue;
         };
