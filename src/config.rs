@@ -154,6 +154,9 @@ pub struct PhotonConfig {
     /// Final-gathering rays per camera sample (so the gathering grows with
     /// the samples); 0 shows the global map directly.
     pub gather_rays: u32,
+    /// Whether gather rays favour the directions the global map's photons
+    /// came from (Jensen 1995), rather than follow the cosine alone.
+    pub guided_gathering: bool,
     /// Most bounces a photon makes.
     pub max_bounces: u32,
     /// Progressive photon mapping (for [`IntegratorKind::Sppm`]).
@@ -171,6 +174,7 @@ impl Default for PhotonConfig {
             caustic_radius: None,
             cone_filter: Some(1.1),
             gather_rays: 16,
+            guided_gathering: true,
             max_bounces: 16,
             sppm: SppmConfig { passes: 64, photons_per_pass: 100_000, initial_radius: None, alpha: 0.7 },
         }

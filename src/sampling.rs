@@ -279,12 +279,26 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
 /// `local` (with +z as the axis) turned so that +z becomes the unit vector `n`
 /// (orthonormal basis of Duff et al. 2017, no branches on `n` near the poles).
 pub fn around(n: Vec3, local: Vec3) -> Vec3 {
+    let (t, s) = tangents(n);
+    local.x * t + local.y * s + local.z * n
+}
+
+/// The world direction `d` in the frame [`around`] turns to `n`: the inverse
+/// of `around(n, _)`.
+pub fn into_local(n: Vec3, d: Vec3) -> Vec3 {
+    let (t, s) = tangents(n);
+    Vec3::new(d.dot(t), d.dot(s), d.dot(n))
+}
+
+/// Two unit tangents completing the unit `n` to a right-handed orthonormal
+/// basis (Duff et al. 2017).
+fn tangents(n: Vec3) -> (Vec3, Vec3) {
     let sign = 1.0f32.copysign(n.z);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
     let s = Vec3::new(b, sign + n.y * n.y * a, -n.y);
-    local.x * t + local.y * s + local.z * n
+    (t, s)
 }
 
 #[cfg(test)]

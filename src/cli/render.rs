@@ -126,6 +126,11 @@ pub struct SettingArgs {
     /// directly (overrides [photons] gather_rays).
     #[arg(long)]
     gather_rays: Option<u32>,
+    /// Whether gather rays favour the directions the global map's photons
+    /// came from (true, the default) or follow the cosine alone (overrides
+    /// [photons] guided_gathering).
+    #[arg(long, value_name = "BOOL")]
+    guided_gathering: Option<bool>,
     /// Passes of progressive photon mapping (overrides [photons] passes).
     #[arg(long)]
     passes: Option<u32>,
@@ -192,6 +197,7 @@ pub fn config(args: &SettingArgs, scene: &caustix::Scene) -> RenderConfig {
     set(&mut p.global_k, args.global_k);
     set(&mut p.caustic_k, args.caustic_k);
     set(&mut p.gather_rays, args.gather_rays);
+    p.guided_gathering = args.guided_gathering.unwrap_or(p.guided_gathering);
     set(&mut p.sppm.passes, args.passes);
     set(&mut p.sppm.photons_per_pass, args.pass_photons);
     p.global_radius = args.global_radius.or(p.global_radius);

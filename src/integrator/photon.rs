@@ -125,6 +125,7 @@ impl Integrator for PhotonMapping {
             global_estimate: photons.global_estimate(ctx.diagonal),
             caustic_estimate: photons.caustic_estimate(ctx.diagonal),
             gather_per_sample: photons.gather_rays,
+            guided: photons.guided_gathering,
         };
         let tracer = WhittedTracer { ctx, surface_light: Some(&light) };
         let s = &maps.stats;
@@ -152,6 +153,8 @@ struct MapLight<'a> {
     caustic_estimate: Estimate,
     /// Final-gathering rays per camera sample, before scaling by the path's weight.
     gather_per_sample: u32,
+    /// Whether gather rays follow the global map's guides (where it has them).
+    guided: bool,
 }
 
 impl SurfaceLight for MapLight<'_> {
@@ -180,9 +183,11 @@ impl SurfaceLight for MapLight<'_> {
 }
 
 impl MapLight<'_> {
-    /// Indirect light at `sp` by final gathering (Jensen): cosine-distributed
-    /// rays sample the light arriving from the hemisphere, each asking the
-    /// global map for the radiance leaving the diffuse surface it meets.
+    /// Indirect light at `sp` by final gathering (Jensen): rays sample the
+    /// light arriving from the hemisphere, each asking the global map for the
+    /// radiance leaving the diffuse surface it meets. Their directions follow
+    /// the guide of the nearest irradiance record (where its photons came
+    /// from, half of them; the cosine, the other half) or, unguided, the cosine.
     ///
     /// Each camera sample sends its own gather rays (so more samples mean
     /// more gathering, and the estimate keeps converging), scaled by the
@@ -199,16 +204,22 @@ impl MapLight<'_> {
         count: &mut RayCount,
     ) -> Vec3 {
         let n = ((self.gather_per_sample as f32 * throughput.max_element().min(1.0)).ceil() as u32).max(1);
+        let guide = self.guided.then(|| global.gather_guide(sp.p, sp.ns, &self.global_estimate)).flatten();
         let mut sum = Vec3::ZERO;
         for i in 0..n {
-            let wi = around(sp.ns, cosine_hemisphere(stratified(i, n, rng)));
+            let u = stratified(i, n, rng);
+            // With pdf = cos / pi, cos / pdf = pi.
+            let (local, cos_over_pdf) = match &guide {
+                Some(guide) => guide.sample(u),
+                None => (cosine_hemisphere(u), PI),
+            };
+            let wi = around(sp.ns, local);
             if wi.dot(sp.ng) <= 0.0 {
                 continue;
             }
             let incoming = self.gather_radiance(&sp.spawn(wi), global, 0, rng, count);
             if incoming != Vec3::ZERO {
-                // f cos / pdf with pdf = cos / pi.
-                sum += bsdf.eval(wi) * incoming * PI;
+                sum += bsdf.eval(wi) * incoming * cos_over_pdf;
             }
         }
         sum / n as f32

@@ -11,8 +11,9 @@
 //! stats: u64 global emitted, u64 caustic emitted, f64 trace s, f64 build s,
 //!   u64 notes, each u32 length + UTF-8
 //! global map, caustic map: u8 present; u64 photons, each 12 f32 (position,
-//!   incoming, power, normal); u8 precomputed; u64 points, each 10 f32
-//!   (position, normal, irradiance, squared radius)
+//!   incoming, power, normal) and u8 indirect; u8 precomputed; u64 records,
+//!   each 10 f32 (position, normal, irradiance, squared radius), u8 guided
+//!   and, if guided, the gather guide's cell probabilities (guide::CELLS f32)
 //! u64 checksum of everything before it (hash::checksum)
 //! ```
 //!
@@ -24,14 +25,15 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::map::{Photon, PhotonMap, Precomputed};
+use super::guide::{GatherGuide, CELLS};
+use super::map::{IrradianceRecord, Photon, PhotonMap, Precomputed};
 use super::{PhotonMaps, PhotonStats};
 use crate::config::RenderConfig;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
 const MAGIC: &[u8; 4] = b"CXPM";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// What a scene's photon maps depend on besides the scene: two maps are
 /// interchangeable when these and the scene's fingerprint agree.
@@ -202,17 +204,27 @@ impl Writer {
             for v in [p.position, p.incoming, p.power, p.normal] {
                 self.vec3(v);
             }
+            self.0.push(u8::from(p.indirect));
         }
-        match map.precomputed_points() {
+        match map.precomputed_records() {
             None => self.0.push(0),
-            Some(points) => {
+            Some(records) => {
                 self.0.push(1);
-                self.u64(points.len() as u64);
-                for (position, normal, irradiance, r2) in points {
-                    for v in [position, normal, irradiance] {
+                self.u64(records.len() as u64);
+                for record in records {
+                    for v in [record.position, record.normal, record.irradiance] {
                         self.vec3(v);
                     }
-                    self.f32(r2);
+                    self.f32(record.radius2);
+                    match &record.guide {
+                        None => self.0.push(0),
+                        Some(guide) => {
+                            self.0.push(1);
+                            for &p in guide.cells() {
+                                self.f32(p);
+                            }
+                        }
+                    }
                 }
             }
         }
@@ -310,7 +322,7 @@ impl Reader<'_> {
         if self.u8()? == 0 {
             return Ok(None);
         }
-        let n = self.count(48)?;
+        let n = self.count(49)?;
         let mut photons = Vec::with_capacity(n);
         for _ in 0..n {
             photons.push(Photon {
@@ -318,23 +330,39 @@ impl Reader<'_> {
                 incoming: self.vec3()?,
                 power: self.vec3()?,
                 normal: self.vec3()?,
+                indirect: self.u8()? != 0,
             });
         }
         let precomputed = match self.u8()? {
             0 => None,
             _ => {
-                let n = self.count(40)?;
-                let mut points = Vec::with_capacity(n);
+                let n = self.count(41)?;
+                let mut records = Vec::with_capacity(n);
                 for _ in 0..n {
-                    points.push((self.vec3()?, self.vec3()?, self.vec3()?, self.f32()?));
+                    let (position, normal, irradiance, radius2) =
+                        (self.vec3()?, self.vec3()?, self.vec3()?, self.f32()?);
+                    let guide = match self.u8()? {
+                        0 => None,
+                        _ => Some(self.guide()?),
+                    };
+                    records.push(IrradianceRecord { position, normal, irradiance, radius2, guide });
                 }
-                Some(points)
+                Some(records)
             }
         };
         let mut map = PhotonMap::new(photons);
-        if let Some(points) = precomputed {
-            map.set_precomputed(Precomputed::new(points));
+        if let Some(records) = precomputed {
+            map.set_precomputed(Precomputed::new(records));
         }
         Ok(Some(map))
+    }
+
+    fn guide(&mut self) -> std::result::Result<GatherGuide, Failure> {
+        let mut cells = [0.0; CELLS];
+        for p in &mut cells {
+            *p = self.f32()?;
+        }
+        GatherGuide::from_cells(cells)
+            .ok_or_else(|| Some("a gather guide's probabilities are not one: corrupted".into()))
     }
 }

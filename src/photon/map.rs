@@ -7,9 +7,11 @@ use std::num::NonZero;
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
+use super::guide::GatherGuide;
 use super::nearest::{Found, PointTree};
 pub use crate::config::Estimate;
 use crate::material::Material;
+use crate::sampling::into_local;
 
 /// One stored photon: where it landed, where it came from, what it carries.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -22,6 +24,11 @@ pub struct Photon {
     pub power: Vec3,
     /// Unit shading normal of the surface it landed on, on the side it came from.
     pub normal: Vec3,
+    /// Whether it bounced off a diffuse or glossy surface before: light that
+    /// final gathering's rays find (the rest came straight from a light, or
+    /// through mirrors and glass only, which shadow rays and the caustic map
+    /// hold).
+    pub indirect: bool,
 }
 
 impl Photon {
@@ -60,14 +67,49 @@ pub(crate) struct Precomputed {
     /// Per chosen photon's position: its normal, irradiance, and the
     /// squared radius of the disc the estimate gathered over (where it holds).
     tree: PointTree<(Vec3, Vec3, f32)>,
+    /// Per record, in the order given: where its indirect light came from.
+    guides: Vec<Option<GatherGuide>>,
+}
+
+/// Irradiance estimated ahead at one photon's position.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct IrradianceRecord {
+    pub position: Vec3,
+    pub normal: Vec3,
+    pub irradiance: Vec3,
+    /// The squared radius of the disc the estimate gathered over.
+    pub radius2: f32,
+    /// The directions the photons there that bounced before came from (for
+    /// gather rays; `None` where none did).
+    pub guide: Option<GatherGuide>,
 }
 
 impl Precomputed {
     /// The records and their kd-tree (at least one record).
-    pub(crate) fn new(points: Vec<(Vec3, Vec3, Vec3, f32)>) -> Precomputed {
-        let positions: Vec<Vec3> = points.iter().map(|p| p.0).collect();
-        let values: Vec<(Vec3, Vec3, f32)> = points.iter().map(|p| (p.1, p.2, p.3)).collect();
-        Precomputed { tree: PointTree::new(&positions, &values) }
+    pub(crate) fn new(records: Vec<IrradianceRecord>) -> Precomputed {
+        let positions: Vec<Vec3> = records.iter().map(|r| r.position).collect();
+        let values: Vec<(Vec3, Vec3, f32)> =
+            records.iter().map(|r| (r.normal, r.irradiance, r.radius2)).collect();
+        let guides = records.into_iter().map(|r| r.guide).collect();
+        Precomputed { tree: PointTree::new(&positions, &values), guides }
+    }
+
+    /// The record nearest `p` on a surface facing the same way as `n` whose
+    /// own gathering disc reaches `p`, searching within `max_radius`.
+    fn covering(&self, p: Vec3, n: Vec3, max_radius: f32) -> Option<Found> {
+        let covers = |found: &&Found| {
+            let (normal, _, r2) = *self.tree.value(found);
+            found.distance2 <= r2 && normal.dot(n) > 0.9
+        };
+        // Usually the nearest point lies on the same surface; only if not,
+        // look a little further.
+        let nearest = self.tree.nearest::<1>(p, f32::INFINITY);
+        match nearest.as_slice().iter().find(covers) {
+            Some(&found) => Some(found),
+            None => {
+                self.tree.nearest::<8>(p, max_radius * max_radius).as_slice().iter().find(covers).copied()
+            }
+        }
     }
 }
 
@@ -99,23 +141,50 @@ impl PhotonMap {
             return;
         }
         let order = morton_order(&chosen.iter().map(|p| p.position).collect::<Vec<_>>());
-        let estimates: Vec<(Vec3, f32)> = order
+        let estimates: Vec<IrradianceRecord> = order
             .par_iter()
-            .map(|&i| self.irradiance_over(chosen[i].position, chosen[i].normal, estimate))
+            .map(|&i| self.record_at(chosen[i].position, chosen[i].normal, estimate))
             .collect();
         // Back to photon order: the `j`-th estimate is of photon `order[j]`.
-        let mut points = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0); chosen.len()];
-        for (&i, (irradiance, r2)) in order.iter().zip(estimates) {
-            points[i] = (chosen[i].position, chosen[i].normal, irradiance, r2);
+        let mut records: Vec<Option<IrradianceRecord>> = vec![None; chosen.len()];
+        for (&i, record) in order.iter().zip(estimates) {
+            records[i] = Some(record);
         }
-        self.precomputed = Some(Precomputed::new(points));
+        self.precomputed = Some(Precomputed::new(records.into_iter().flatten().collect()));
     }
 
-    /// The precomputed irradiance records (position, normal, irradiance,
-    /// squared radius), if any: what a saved map stores.
-    pub(crate) fn precomputed_points(&self) -> Option<Vec<(Vec3, Vec3, Vec3, f32)>> {
+    /// The irradiance record at `p` (normal `n`), with its gather guide, from one search.
+    fn record_at(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> IrradianceRecord {
+        let (found, radius2) = self.disc(p, estimate);
+        let irradiance = self.irradiance_in(&found, radius2, p, n, estimate);
+        let r = radius2.sqrt();
+        let guide = GatherGuide::new(
+            found
+                .iter()
+                .map(|&(_, i)| &self.photons[i])
+                .filter(|photon| photon.indirect && photon.lights_surface(p, n, r))
+                .map(|photon| (into_local(n, photon.incoming), photon.power.element_sum())),
+        );
+        IrradianceRecord { position: p, normal: n, irradiance, radius2, guide }
+    }
+
+    /// The precomputed irradiance records, if any, in the order they were
+    /// made: what a saved map stores.
+    pub(crate) fn precomputed_records(&self) -> Option<Vec<IrradianceRecord>> {
         let pre = self.precomputed.as_ref()?;
-        Some(pre.tree.in_given_order().into_iter().map(|(p, (n, e, r2))| (p, n, e, r2)).collect())
+        let points = pre.tree.in_given_order().into_iter();
+        Some(
+            points
+                .zip(&pre.guides)
+                .map(|((position, (normal, irradiance, radius2)), guide)| IrradianceRecord {
+                    position,
+                    normal,
+                    irradiance,
+                    radius2,
+                    guide: guide.clone(),
+                })
+                .collect(),
+        )
     }
 
     /// Whether irradiance was precomputed (for final gathering).
@@ -137,23 +206,18 @@ impl PhotonMap {
         let Some(pre) = &self.precomputed else {
             return self.radiance(p, n, n, material, estimate);
         };
-        let to_radiance = |irradiance: Vec3| material.diffuse * std::f32::consts::FRAC_1_PI * irradiance;
-        let covers = |found: &&Found| {
-            let (normal, _, r2) = *pre.tree.value(found);
-            found.distance2 <= r2 && normal.dot(n) > 0.9
-        };
-        // Usually the nearest point lies on the same surface; only if not,
-        // look a little further.
-        let max_distance2 = estimate.max_radius * estimate.max_radius;
-        let nearest = pre.tree.nearest::<1>(p, f32::INFINITY);
-        let found = match nearest.as_slice().iter().find(covers) {
-            Some(&found) => Some(found),
-            None => pre.tree.nearest::<8>(p, max_distance2).as_slice().iter().find(covers).copied(),
-        };
-        if let Some(found) = found {
-            return to_radiance(pre.tree.value(&found).1);
+        if let Some(found) = pre.covering(p, n, estimate.max_radius) {
+            return material.diffuse * std::f32::consts::FRAC_1_PI * pre.tree.value(&found).1;
         }
         self.radiance(p, n, n, &Material { diffuse: material.diffuse, ..Material::default() }, estimate)
+    }
+
+    /// The gather guide of the precomputed record that [`PhotonMap::precomputed_radiance`]
+    /// would read at `p` (normal `n`), if it has one.
+    pub fn gather_guide(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> Option<&GatherGuide> {
+        let pre = self.precomputed.as_ref()?;
+        let found = pre.covering(p, n, estimate.max_radius)?;
+        pre.guides[found.index as usize].as_ref()
     }
 
     /// The stored photons.
@@ -197,24 +261,28 @@ impl PhotonMap {
         material: &Material,
         estimate: &Estimate,
     ) -> (Vec3, f32) {
-        let mut found = self.nearest(p, estimate.k, estimate.max_radius);
-        let whole_disc = estimate.max_radius * estimate.max_radius;
-        let Some(&(farthest, _)) = found.last() else { return (Vec3::ZERO, whole_disc) };
-        let r2 = if found.len() < estimate.k {
-            whole_disc
-        } else {
-            // The k-th photon only marks the radius: it lies on the disc's
-            // edge by construction, so counting it would overestimate the
-            // density by k / (k - 1). Sum the k - 1 inside.
-            found.pop();
-            farthest
-        };
-        if r2 <= 0.0 {
-            return (Vec3::ZERO, 0.0);
+        let (found, r2) = self.disc(p, estimate);
+        (self.radiance_in(&found, r2, p, n, wo, material, estimate), r2)
+    }
+
+    /// [`PhotonMap::radiance`] from the photons of a [`PhotonMap::disc`].
+    #[allow(clippy::too_many_arguments)]
+    fn radiance_in(
+        &self,
+        found: &[(f32, usize)],
+        r2: f32,
+        p: Vec3,
+        n: Vec3,
+        wo: Vec3,
+        material: &Material,
+        estimate: &Estimate,
+    ) -> Vec3 {
+        if found.is_empty() || r2 <= 0.0 {
+            return Vec3::ZERO;
         }
         let r = r2.sqrt();
         let mut sum = Vec3::ZERO;
-        for &(d2, i) in &found {
+        for &(d2, i) in found {
             let photon = &self.photons[i];
             if !photon.lights_surface(p, n, r) {
                 continue;
@@ -227,22 +295,41 @@ impl PhotonMap {
         }
         // The cone filter's weights integrate to (1 - 2 / (3 k_c)) pi r^2.
         let area = std::f32::consts::PI * r2 * estimate.cone_filter.map_or(1.0, |kc| 1.0 - 2.0 / (3.0 * kc));
-        (sum / area, r2)
+        sum / area
+    }
+
+    /// The photons of an estimate at `p` (indices and squared distances) and
+    /// the squared radius of its disc.
+    fn disc(&self, p: Vec3, estimate: &Estimate) -> (Vec<(f32, usize)>, f32) {
+        let mut found = self.nearest(p, estimate.k, estimate.max_radius);
+        let whole_disc = estimate.max_radius * estimate.max_radius;
+        let Some(&(farthest, _)) = found.last() else { return (found, whole_disc) };
+        if found.len() < estimate.k {
+            return (found, whole_disc);
+        }
+        // The k-th photon only marks the radius: it lies on the disc's edge
+        // by construction, so counting it would overestimate the density by
+        // k / (k - 1). Sum the k - 1 inside.
+        found.pop();
+        if farthest <= 0.0 {
+            return (Vec::new(), 0.0);
+        }
+        (found, farthest)
     }
 
     /// Irradiance at `p` on a surface with normal `n`: `sum power / (pi r^2)`
     /// over the nearest photons from above (for tests and diagnostics).
     pub fn irradiance(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> Vec3 {
-        self.irradiance_over(p, n, estimate).0
+        let (found, r2) = self.disc(p, estimate);
+        self.irradiance_in(&found, r2, p, n, estimate)
     }
 
-    /// [`PhotonMap::irradiance`], and the squared radius of the disc it used.
-    fn irradiance_over(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> (Vec3, f32) {
+    /// [`PhotonMap::irradiance`] from the photons of a [`PhotonMap::disc`].
+    fn irradiance_in(&self, found: &[(f32, usize)], r2: f32, p: Vec3, n: Vec3, estimate: &Estimate) -> Vec3 {
         let lambertian = Material { diffuse: Vec3::ONE, ..Material::default() };
         // A white Lambertian BRDF is 1 / pi, so radiance * pi is irradiance.
-        let (radiance, r2) =
-            self.radiance_over(p, n, n, &lambertian, &Estimate { cone_filter: None, ..*estimate });
-        (radiance * std::f32::consts::PI, r2)
+        let no_filter = Estimate { cone_filter: None, ..*estimate };
+        self.radiance_in(found, r2, p, n, n, &lambertian, &no_filter) * std::f32::consts::PI
     }
 }
 
@@ -288,6 +375,7 @@ mod tests {
                 incoming: Vec3::Y,
                 power: Vec3::ONE,
                 normal: Vec3::Y,
+                indirect: false,
             })
             .collect();
         let map = PhotonMap::new(photons.clone());
@@ -322,6 +410,7 @@ mod tests {
                 incoming: Vec3::new(0.3, 1.0, 0.0).normalize(),
                 power: Vec3::splat(1e-5),
                 normal: Vec3::Y,
+                indirect: false,
             })
             .collect();
         let map = PhotonMap::new(photons);

@@ -15,6 +15,7 @@
 //! own random stream, so the maps do not depend on the thread count.
 
 pub mod file;
+pub mod guide;
 pub mod map;
 pub mod nearest;
 
@@ -345,7 +346,13 @@ fn trace_photon(
         let dir = ray.dir.normalize();
 
         if m.is_glossy_or_diffuse() {
-            let photon = Photon { position: sp.p, incoming: -dir, power, normal: sp.ns };
+            let photon = Photon {
+                position: sp.p,
+                incoming: -dir,
+                power,
+                normal: sp.ns,
+                indirect: diffuse_bounces > 0,
+            };
             if !arrive(&Arrival { photon, diffuse_bounces, specular_bounces }) {
                 return;
             }

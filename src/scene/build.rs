@@ -168,6 +168,7 @@ impl Builder<'_> {
             caustic_radius: p.caustic_radius.map(|r| r.0),
             cone_filter,
             gather_rays: p.gather_rays,
+            guided_gathering: p.guided_gathering,
             max_bounces: p.max_bounces,
             sppm: SppmConfig {
                 passes: p.passes,

@@ -186,6 +186,9 @@ pub struct PhotonSection {
     /// Final-gathering rays per shading point; 0 shows the global map directly.
     #[serde(default = "default_gather_rays", deserialize_with = "gather_rays")]
     pub gather_rays: u32,
+    /// Whether gather rays favour the directions photons came from.
+    #[serde(default = "default_guided_gathering")]
+    pub guided_gathering: bool,
     /// Most bounces per photon.
     #[serde(default = "default_photon_bounces", deserialize_with = "max_depth")]
     pub max_bounces: u32,
@@ -214,6 +217,7 @@ impl Default for PhotonSection {
             caustic_radius: None,
             cone_filter: default_cone_filter(),
             gather_rays: default_gather_rays(),
+            guided_gathering: default_guided_gathering(),
             max_bounces: default_photon_bounces(),
             passes: default_passes(),
             pass_photons: default_pass_photons(),
@@ -241,6 +245,10 @@ fn default_caustic_k() -> u32 {
 
 fn default_cone_filter() -> Spanned<Finite> {
     Spanned::new(0..0, Finite(PhotonConfig::default().cone_filter.unwrap_or(0.0)))
+}
+
+fn default_guided_gathering() -> bool {
+    PhotonConfig::default().guided_gathering
 }
 
 fn default_gather_rays() -> u32 {
