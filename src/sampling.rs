@@ -279,26 +279,38 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
 /// `local` (with +z as the axis) turned so that +z becomes the unit vector `n`
 /// (orthonormal basis of Duff et al. 2017, no branches on `n` near the poles).
 pub fn around(n: Vec3, local: Vec3) -> Vec3 {
-    let (t, s) = tangents(n);
-    local.x * t + local.y * s + local.z * n
+    Frame::new(n).to_world(local)
 }
 
-/// The world direction `d` in the frame [`around`] turns to `n`: the inverse
-/// of `around(n, _)`.
-pub fn into_local(n: Vec3, d: Vec3) -> Vec3 {
-    let (t, s) = tangents(n);
-    Vec3::new(d.dot(t), d.dot(s), d.dot(n))
+/// The orthonormal frame [`around`] turns to: two unit tangents and the unit
+/// normal `n` (Duff et al. 2017). Worked out once, for many directions.
+#[derive(Debug, Clone, Copy)]
+pub struct Frame {
+    t: Vec3,
+    s: Vec3,
+    n: Vec3,
 }
 
-/// Two unit tangents completing the unit `n` to a right-handed orthonormal
-/// basis (Duff et al. 2017).
-fn tangents(n: Vec3) -> (Vec3, Vec3) {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    let s = Vec3::new(b, sign + n.y * n.y * a, -n.y);
-    (t, s)
+impl Frame {
+    /// The frame about the unit vector `n`.
+    pub fn new(n: Vec3) -> Frame {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let s = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Frame { t, s, n }
+    }
+
+    /// `local` (+z the normal) in world coordinates.
+    pub fn to_world(&self, local: Vec3) -> Vec3 {
+        local.x * self.t + local.y * self.s + local.z * self.n
+    }
+
+    /// The world direction `d` in this frame: the inverse of [`Frame::to_world`].
+    pub fn to_local(&self, d: Vec3) -> Vec3 {
+        Vec3::new(d.dot(self.t), d.dot(self.s), d.dot(self.n))
+    }
 }
 
 #[cfg(test)]
@@ -486,6 +498,17 @@ mod tests {
         let n = 100_000;
         let mean: Vec3 = (0..n).map(|_| uniform_sphere(r.uniform2())).sum::<Vec3>() / n as f32;
         assert!(mean.length() < 0.01, "{mean}");
+    }
+
+    #[test]
+    fn to_local_undoes_to_world() {
+        let mut rng = Rng::new(2, 9);
+        for _ in 0..100 {
+            let frame = Frame::new(uniform_sphere(rng.uniform2()));
+            let d = uniform_sphere(rng.uniform2());
+            assert!(frame.to_world(frame.to_local(d)).abs_diff_eq(d, 1e-5));
+            assert!(frame.to_local(frame.to_world(d)).abs_diff_eq(d, 1e-5));
+        }
     }
 
     #[test]

@@ -11,7 +11,7 @@ use super::guide::GatherGuide;
 use super::nearest::{Found, PointTree};
 pub use crate::config::Estimate;
 use crate::material::Material;
-use crate::sampling::into_local;
+use crate::sampling::Frame;
 
 /// One stored photon: where it landed, where it came from, what it carries.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -157,13 +157,13 @@ impl PhotonMap {
     fn record_at(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> IrradianceRecord {
         let (found, radius2) = self.disc(p, estimate);
         let irradiance = self.irradiance_in(&found, radius2, p, n, estimate);
-        let r = radius2.sqrt();
+        let (r, frame) = (radius2.sqrt(), Frame::new(n));
         let guide = GatherGuide::new(
             found
                 .iter()
                 .map(|&(_, i)| &self.photons[i])
                 .filter(|photon| photon.indirect && photon.lights_surface(p, n, r))
-                .map(|photon| (into_local(n, photon.incoming), photon.power.element_sum())),
+                .map(|photon| (frame.to_local(photon.incoming), photon.power.element_sum())),
         );
         IrradianceRecord { position: p, normal: n, irradiance, radius2, guide }
     }
