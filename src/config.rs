@@ -125,8 +125,9 @@ pub struct SppmConfig {
     pub passes: u32,
     /// Photons emitted per pass.
     pub photons_per_pass: u32,
-    /// Every pixel's gathering radius before the first pass; `None`: 1/100
-    /// of the scene's bounding-box diagonal.
+    /// Every pixel's gathering radius before the first pass; `None`: each
+    /// pixel's own, from the density of a first batch of photons around its
+    /// first visible point (SPPM; VCM's default is its own).
     pub initial_radius: Option<f32>,
     /// The fraction of new photons kept per pass, in (0, 1): smaller shrinks
     /// the radius faster (less bias, more noise). Hachisuka and Jensen use 0.7.
@@ -198,11 +199,6 @@ impl PhotonConfig {
             max_radius: self.caustic_radius.unwrap_or(diagonal / 100.0),
             cone_filter: self.cone_filter,
         }
-    }
-
-    /// Progressive photon mapping's starting radius in a scene with this diagonal.
-    pub fn sppm_radius(&self, diagonal: f32) -> f32 {
-        self.sppm.initial_radius.unwrap_or(diagonal / 100.0)
     }
 }
 
@@ -498,7 +494,6 @@ mod tests {
         let p = PhotonConfig::default();
         assert_eq!(p.global_estimate(50.0).max_radius, 2.0);
         assert_eq!(p.caustic_estimate(50.0).max_radius, 0.5);
-        assert_eq!(p.sppm_radius(50.0), 0.5);
         let given = PhotonConfig { global_radius: Some(0.3), ..p };
         assert_eq!(given.global_estimate(50.0).max_radius, 0.3);
     }

@@ -56,10 +56,19 @@ impl Estimate {
                     + p.caustic_photons as f64;
                 (pixels * FILM_BYTES_PER_PIXEL, (stored * PHOTON_BYTES as f64) as u64)
             }
-            // One pass's splats, not a map: a few per photon.
+            // One pass's splats, not a map: a few per photon; and, without
+            // a starting radius, a pass's photons kept for the pixels' own.
             IntegratorKind::Sppm => {
                 photons_setting = ("pass_photons", "the photons of a pass");
-                (pixels * (FILM_BYTES_PER_PIXEL + SPPM_BYTES_PER_PIXEL), p.sppm.photons_per_pass as u64 * 64)
+                let splats = p.sppm.photons_per_pass as u64 * 64;
+                let density = match p.sppm.initial_radius {
+                    None => p.sppm.photons_per_pass as f64 * stores_per_photon(scene, p.max_bounces),
+                    Some(_) => 0.0,
+                };
+                (
+                    pixels * (FILM_BYTES_PER_PIXEL + SPPM_BYTES_PER_PIXEL),
+                    splats + (density * PHOTON_BYTES as f64) as u64,
+                )
             }
             // One pass's light vertices (one light subpath per pixel of
             // the whole image), and the film's sums.

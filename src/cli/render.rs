@@ -137,7 +137,8 @@ pub struct SettingArgs {
     /// Photons per pass of progressive photon mapping (overrides [photons] pass_photons).
     #[arg(long)]
     pass_photons: Option<u32>,
-    /// Starting radius of progressive photon mapping, and of VCM's merging
+    /// Starting radius of progressive photon mapping (default: each pixel's
+    /// own, holding 32 photons of a first batch), and of VCM's merging
     /// (overrides [photons] sppm_radius).
     #[arg(long)]
     sppm_radius: Option<f32>,

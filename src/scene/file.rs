@@ -198,7 +198,8 @@ pub struct PhotonSection {
     /// Progressive photon mapping: photons emitted per pass.
     #[serde(default = "default_pass_photons", deserialize_with = "pass_photons")]
     pub pass_photons: u32,
-    /// Progressive photon mapping: starting radius (default: 1/100 of the scene's diagonal).
+    /// Progressive photon mapping: starting radius (default: each pixel's
+    /// own, from the density of a first batch of photons).
     #[serde(default)]
     pub sppm_radius: Option<Positive>,
     /// Progressive photon mapping: fraction of new photons kept per pass, in (0, 1).

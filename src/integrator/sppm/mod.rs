@@ -12,7 +12,9 @@
 //!
 //! The radius goes to zero and the photon count to infinity, so the bias
 //! and the noise both vanish as passes go on, while memory stays bounded by
-//! one visible point per pixel and one batch of photons.
+//! one visible point per pixel and one batch of photons. Unless a starting
+//! radius is given, each pixel starts with the radius that holds 32 photons
+//! of a batch traced before the first pass, around its first visible point.
 //!
 //! Photons arriving straight from a light are not gathered (shadow rays
 //! already count that light); those that came through mirrors and glass only
@@ -32,7 +34,7 @@ use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
-use crate::photon::{emit, Arrival};
+use crate::photon::{emit, Arrival, Photon, PhotonMap};
 use crate::query::{Interaction, RayCount};
 use crate::sampling::Rng;
 use grid::Grid;
@@ -135,13 +137,49 @@ pub struct Progressive<'a> {
     rays: RayCount,
     /// Seconds spent tracing photons and gathering them.
     photon_seconds: f64,
+    /// Where a first batch of photons landed, for the starting radius of
+    /// each pixel (traced before the first pass), when no radius is given.
+    density: Option<Density>,
+}
+
+/// Photons of a batch of their own, traced before the first pass: each
+/// pixel starts with the radius that holds [`START_NEIGHBOURS`] of them
+/// around its first visible point. Where light is dense (a caustic, a wall
+/// near the light) the start is sharp, where it is thin the start is wide
+/// enough to gather some at once; a fixed start (a fraction of the scene,
+/// or pixels' footprints) was measured worse, by scene, either way
+/// (BENCHMARKS.md, "SPPM's starting radius").
+struct Density {
+    map: PhotonMap,
+    /// The starting radius's bounds: 1e-4 and 1/25 of the scene's diagonal.
+    min_radius: f32,
+    max_radius: f32,
+}
+
+/// Photons of the density batch within a pixel's starting radius: measured
+/// 8, 16, 32, 64 and 128 (32 and 64 best; 64 gathers more, so slower).
+const START_NEIGHBOURS: usize = 32;
+
+impl Density {
+    /// The distance from `p` to the [`START_NEIGHBOURS`]-th nearest photon,
+    /// within the bounds (the largest where fewer are near).
+    fn radius_at(&self, p: Vec3) -> f32 {
+        let found = self.map.nearest(p, START_NEIGHBOURS, self.max_radius);
+        match found.last() {
+            Some(&(d2, _)) if found.len() == START_NEIGHBOURS => {
+                d2.sqrt().clamp(self.min_radius, self.max_radius)
+            }
+            _ => self.max_radius,
+        }
+    }
 }
 
 impl<'a> Progressive<'a> {
     /// A render with no passes yet.
     pub fn new(ctx: &Context<'a>) -> Self {
         let config = ctx.config;
-        let radius = config.photons.sppm_radius(ctx.diagonal);
+        // Zero: each pixel's radius is set at its first visible point.
+        let radius = config.photons.sppm.initial_radius.unwrap_or(0.0);
         let region = config.region();
         let pixels = (0..region.pixels() as usize)
             .map(|i| region.pixel(i))
@@ -155,7 +193,14 @@ impl<'a> Progressive<'a> {
                 radius,
             })
             .collect();
-        Progressive { ctx: *ctx, pixels, passes: 0, rays: RayCount::default(), photon_seconds: 0.0 }
+        let start = Instant::now();
+        let density = config.photons.sppm.initial_radius.is_none().then(|| Density {
+            map: PhotonMap::new(density_photons(ctx)),
+            min_radius: ctx.diagonal * 1e-4,
+            max_radius: ctx.diagonal / 25.0,
+        });
+        let photon_seconds = start.elapsed().as_secs_f64();
+        Progressive { ctx: *ctx, pixels, passes: 0, rays: RayCount::default(), photon_seconds, density }
     }
 
     /// Passes run so far.
@@ -167,13 +212,21 @@ impl<'a> Progressive<'a> {
     pub fn run_pass(&mut self) {
         let ctx = self.ctx;
         let region = ctx.config.region();
+        let density = self.density.as_ref();
         let (points, counts): (Vec<Option<VisiblePoint>>, Vec<RayCount>) = self
             .pixels
             .par_iter_mut()
             .enumerate()
             .map(|(i, state)| {
                 let mut count = RayCount::default();
-                (visible_point(&ctx, region.pixel(i), state, &mut count), count)
+                let mut point = visible_point(&ctx, region.pixel(i), state, &mut count);
+                if let (Some(vp), Some(density)) = (&mut point, density) {
+                    if state.radius == 0.0 {
+                        state.radius = density.radius_at(vp.p);
+                        vp.radius = state.radius;
+                    }
+                }
+                (point, count)
             })
             .unzip();
         for c in counts {
@@ -205,8 +258,12 @@ impl<'a> Progressive<'a> {
     pub fn rendered(&self, elapsed: Duration) -> Rendered {
         let sppm = &self.ctx.config.photons.sppm;
         let emitted = self.passes as u64 * sppm.photons_per_pass as u64;
+        let density = match self.density {
+            Some(_) => format!(" (and {} for the starting radii)", sppm.photons_per_pass),
+            None => String::new(),
+        };
         let note = format!(
-            "photons: {emitted} emitted in {} passes of {}, traced and gathered in {:.2} s",
+            "photons: {emitted} emitted in {} passes of {}{density}, traced and gathered in {:.2} s",
             self.passes, sppm.photons_per_pass, self.photon_seconds
         );
         let config = self.ctx.config;
@@ -225,6 +282,10 @@ impl<'a> Progressive<'a> {
             .map(|s| {
                 let area = passes * PI * s.radius * s.radius;
                 let seen = s.seen * (1.0 / passes);
+                if area == 0.0 {
+                    // No visible point yet to set the radius: nothing gathered.
+                    return seen;
+                }
                 Sample {
                     caustic: s.tau_caustic / area,
                     indirect: seen.indirect + s.tau_global / area,
@@ -284,6 +345,27 @@ impl<'a> Progressive<'a> {
         }
         gathered
     }
+}
+
+/// A batch of photons of its own (a pass's count), where the passes' photons
+/// would be gathered (not straight from a light).
+fn density_photons(ctx: &Context) -> Vec<Photon> {
+    let config = ctx.config;
+    let chunks = emit(
+        &ctx.query,
+        config.photons.sppm.photons_per_pass,
+        config.photons.max_bounces,
+        config.seed ^ 0x5_99A1,
+        false,
+        Vec::new,
+        |kept: &mut Vec<Photon>, arrival: &Arrival| {
+            if arrival.diffuse_bounces + arrival.specular_bounces > 0 {
+                kept.push(arrival.photon);
+            }
+            true
+        },
+    );
+    chunks.into_iter().flatten().collect()
 }
 
 /// Follows one jittered camera path from pixel `(x, y)` to its visible
@@ -348,4 +430,38 @@ fn visible_point(
         ray = sp.spawn(s.wi);
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn photon_at(position: Vec3) -> Photon {
+        Photon { position, incoming: Vec3::Y, power: Vec3::ONE, normal: Vec3::Y, indirect: true }
+    }
+
+    fn density(photons: Vec<Photon>) -> Density {
+        Density { map: PhotonMap::new(photons), min_radius: 1e-4, max_radius: 0.4 }
+    }
+
+    #[test]
+    fn the_starting_radius_holds_its_photons_where_they_are_dense_or_thin() {
+        // Uniform on the unit square, n photons: k of them lie within
+        // sqrt(k / (pi n)) of a point inside.
+        let mut rng = Rng::new(4, 4);
+        for n in [10_000, 160_000] {
+            let photons = (0..n).map(|_| photon_at(Vec3::new(rng.uniform(), 0.0, rng.uniform()))).collect();
+            let expected = (START_NEIGHBOURS as f32 / (PI * n as f32)).sqrt();
+            let r = density(photons).radius_at(Vec3::new(0.5, 0.0, 0.5));
+            assert!((r / expected - 1.0).abs() < 0.2, "{n} photons: {r} against {expected}");
+        }
+    }
+
+    #[test]
+    fn the_starting_radius_stays_within_its_bounds() {
+        // None near: the largest; all at one point: the smallest, never zero.
+        assert_eq!(density(Vec::new()).radius_at(Vec3::ZERO), 0.4);
+        assert_eq!(density(vec![photon_at(Vec3::X); 10]).radius_at(Vec3::ZERO), 0.4);
+        assert_eq!(density(vec![photon_at(Vec3::ZERO); 100]).radius_at(Vec3::ZERO), 1e-4);
+    }
 }
