@@ -29,12 +29,14 @@ fn image(scene: &Scene, settings: &RenderConfig) -> Image {
     film(scene, settings).beauty()
 }
 
-/// The path-traced reference (1024 spp), rendered once for all tests here.
+/// The path-traced reference (4096 spp: with 1024 its own noise, about 1%
+/// in block error, hid SPPM's improvement from 64 to 256 passes), rendered
+/// once for all tests here.
 fn path_traced_film(scene: &Scene) -> &'static Film {
     static REFERENCE: OnceLock<Film> = OnceLock::new();
     REFERENCE.get_or_init(|| {
         let settings = RenderConfig { width: SIZE, height: SIZE, ..scene.config.clone() };
-        film(scene, &RenderConfig { integrator: Integrator::Path, samples: 1024, ..settings })
+        film(scene, &RenderConfig { integrator: Integrator::Path, samples: 4096, ..settings })
     })
 }
 
@@ -89,9 +91,9 @@ fn block_error(a: &[f32], reference: &[f32]) -> f32 {
     a.iter().zip(reference).map(|(x, r)| (x - r).abs() / r.max(1e-3)).sum::<f32>() / a.len() as f32
 }
 
-/// Measured (32 x 32, path tracer 1024 spp, photon mapper 16 spp, 256
-/// gather rays): block error 2.72%, 1.41%, 1.06% and lit-scene mean -0.90%,
-/// -0.56%, +0.41% at 2k, 20k, 200k global photons. (Before photons and
+/// Measured (32 x 32, path tracer 4096 spp, photon mapper 16 spp, 256
+/// gather rays): block error 1.74%, 1.04%, 0.52% and lit-scene mean +0.50%,
+/// -0.65%, -0.07% at 2k, 20k, 200k global photons. (Before photons and
 /// gather rays stopped at the front of the light, as camera paths do, the
 /// mean drifted to +1.37% at 200k.)
 #[test]
@@ -130,8 +132,10 @@ fn photon_mapping_agrees_with_the_path_tracer_and_improves_with_photons() {
 }
 
 /// Progressive photon mapping on the same box: measured (32 x 32, 20k
-/// photons per pass) block error 3.56%, 2.27%, 1.02% and lit-scene mean
-/// -1.05%, +0.22%, +0.71% at 16, 64, 256 passes.
+/// photons per pass, 4 camera paths a pass) block error 2.20%, 1.15%,
+/// 1.06% and lit-scene mean -0.40%, +0.11%, +0.08% at 16, 64, 256 passes
+/// (with one camera path a pass, against the 1024-spp reference: 3.56%,
+/// 2.27%, 1.02%).
 #[test]
 fn progressive_photon_mapping_agrees_with_the_path_tracer_and_keeps_improving() {
     let scene = cornell();
@@ -166,14 +170,13 @@ fn progressive_photon_mapping_agrees_with_the_path_tracer_and_keeps_improving() 
 /// image, each light component of the photon mapper and of progressive
 /// photon mapping agrees with the path tracer's, which classifies its paths
 /// by the same rule (see `caustix::film::Sample`). The geometry components
-/// (albedo, depth) agree too. Measured against the 1024-spp reference
-/// (photon / SPPM): emission +0.53% / +3.04%, direct +0.10% / +0.08%,
-/// caustic +7.1% / +6.4%, indirect -2.35% / -0.37%, albedo -0.08% / -0.07%,
-/// depth +0.01% / -0.02%. The caustic's gap is the path tracer's own noise:
-/// at 4096 spp its caustic mean rises 6% and the three agree within 0.5%
-/// (`caustix render scenes/cornell.toml --width 32 --height 32 --aov caustic`
-/// with each integrator). A component counted in the wrong place would be
-/// off by far more than these tolerances.
+/// (albedo, depth) agree too. Measured against the 4096-spp reference
+/// (photon / SPPM / VCM): emission +0.50% / +0.32% / +0.06%, direct +0.01%
+/// / -0.06% / -0.33%, caustic -0.54% / +0.52% / -2.76%, indirect -1.35% /
+/// -0.86% / +0.16%, albedo -0.04% / -0.01% / +0.02%, depth +0.01% / -0.00%
+/// / -0.00%. (Against the 1024-spp reference the caustics differed by 6-7%:
+/// the path tracer's own noise there.) A component counted in the wrong
+/// place would be off by far more than these tolerances.
 #[test]
 fn every_integrator_splits_light_into_the_same_components() {
     let scene = cornell();

@@ -1,9 +1,10 @@
 //! Stochastic progressive photon mapping (Hachisuka and Jensen 2009): the
 //! consistent photon mapper. Each pass
 //!
-//! 1. traces one jittered camera path per pixel through mirrors and glass to
-//!    its first diffuse or glossy surface (the pixel's *visible point*),
-//!    adding the direct light there by shadow rays;
+//! 1. traces jittered camera paths from each pixel through mirrors and glass
+//!    to their first diffuse or glossy surface, adding the direct light
+//!    there by shadow rays (averaged over the pass's 4 paths);
+//!    the first path's surface point is the pixel's *visible point*;
 //! 2. traces a fresh batch of photons and lets every visible point within its
 //!    pixel's radius of a photon's landing place gather it;
 //! 3. shrinks each pixel's radius as photons arrive: with `N` photons so far
@@ -156,6 +157,17 @@ struct Density {
     max_radius: f32,
 }
 
+/// Camera paths per pixel and pass. Each adds the light it finds itself
+/// (direct light by shadow rays, lights seen through mirrors and glass, the
+/// first surface's albedo, normal and depth), averaged over the pass; the
+/// first also leaves the visible point that gathers the pass's photons. One
+/// path a pass left the camera's own noise (a light's edges, the steep
+/// fall-off of light on the ceiling just above a point light, its
+/// reflections) to shrink only as fast as photon passes come, the most of
+/// SPPM's error on the Cornell boxes at 256 x 256; extra paths cost little
+/// beside a pass's photons (BENCHMARKS.md, "SPPM: camera paths per pass").
+const CAMERA_PATHS_PER_PASS: u32 = 4;
+
 /// Photons of the density batch within a pixel's starting radius: measured
 /// 8, 16, 32, 64 and 128 (32 and 64 best; 64 gathers more, so slower).
 const START_NEIGHBOURS: usize = 32;
@@ -219,7 +231,15 @@ impl<'a> Progressive<'a> {
             .enumerate()
             .map(|(i, state)| {
                 let mut count = RayCount::default();
+                // What the camera paths find themselves is averaged over
+                // all of this pass's; the first leaves the visible point.
+                let mut seen = std::mem::take(&mut state.seen);
                 let mut point = visible_point(&ctx, region.pixel(i), state, &mut count);
+                for _ in 1..CAMERA_PATHS_PER_PASS {
+                    visible_point(&ctx, region.pixel(i), state, &mut count);
+                }
+                seen += state.seen * (1.0 / CAMERA_PATHS_PER_PASS as f32);
+                state.seen = seen;
                 if let (Some(vp), Some(density)) = (&mut point, density) {
                     if state.radius == 0.0 {
                         state.radius = density.radius_at(vp.p);
