@@ -35,7 +35,8 @@ use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
-use crate::photon::{emit, Arrival, Photon, PhotonMap};
+use crate::photon::nearest::PointTree;
+use crate::photon::{emit, Arrival};
 use crate::query::{Interaction, RayCount};
 use crate::sampling::Rng;
 use grid::Grid;
@@ -151,7 +152,8 @@ pub struct Progressive<'a> {
 /// or pixels' footprints) was measured worse, by scene, either way
 /// (BENCHMARKS.md, "SPPM's starting radius").
 struct Density {
-    map: PhotonMap,
+    /// The batch's landing places (only their distances count).
+    points: PointTree<()>,
     /// The starting radius's bounds: 1e-4 and 1/25 of the scene's diagonal.
     min_radius: f32,
     max_radius: f32,
@@ -177,10 +179,10 @@ impl Density {
     /// The distance from `p` to the [`START_NEIGHBOURS`]-th nearest photon,
     /// within the bounds (the largest where fewer are near).
     fn radius_at(&self, p: Vec3) -> f32 {
-        let found = self.map.nearest(p, START_NEIGHBOURS, self.max_radius);
-        match found.last() {
-            Some(&(d2, _)) if found.len() == START_NEIGHBOURS => {
-                d2.sqrt().clamp(self.min_radius, self.max_radius)
+        let found = self.points.nearest::<START_NEIGHBOURS>(p, self.max_radius * self.max_radius);
+        match found.as_slice() {
+            all @ [.., farthest] if all.len() == START_NEIGHBOURS => {
+                farthest.distance2.sqrt().clamp(self.min_radius, self.max_radius)
             }
             _ => self.max_radius,
         }
@@ -208,7 +210,10 @@ impl<'a> Progressive<'a> {
             .collect();
         let start = Instant::now();
         let density = config.photons.sppm.initial_radius.is_none().then(|| Density {
-            map: PhotonMap::new(density_photons(ctx)),
+            points: {
+                let positions = density_positions(ctx);
+                PointTree::new(&positions, &vec![(); positions.len()])
+            },
             min_radius: ctx.diagonal * 1e-4,
             max_radius: ctx.diagonal / 25.0,
         });
@@ -338,8 +343,8 @@ impl<'a> Progressive<'a> {
             false,
             Vec::new,
             |splats: &mut Vec<(u32, Vec3, bool)>, arrival: &Arrival| {
-                if arrival.diffuse_bounces + arrival.specular_bounces == 0 {
-                    return true; // direct light: the shadow rays' part
+                if !is_gathered(arrival) {
+                    return true;
                 }
                 let photon = &arrival.photon;
                 for &i in grid.near(photon.position) {
@@ -368,9 +373,15 @@ impl<'a> Progressive<'a> {
     }
 }
 
-/// A batch of photons of its own (a pass's count), where the passes' photons
-/// would be gathered (not straight from a light).
-fn density_photons(ctx: &Context) -> Vec<Photon> {
+/// Whether a pass gathers a photon: not one straight from a light (shadow
+/// rays already count that light).
+fn is_gathered(arrival: &Arrival) -> bool {
+    arrival.diffuse_bounces + arrival.specular_bounces > 0
+}
+
+/// Where a batch of photons of its own (a pass's count) lands, of those a
+/// pass would gather.
+fn density_positions(ctx: &Context) -> Vec<Vec3> {
     let config = ctx.config;
     let chunks = emit(
         &ctx.query,
@@ -379,9 +390,9 @@ fn density_photons(ctx: &Context) -> Vec<Photon> {
         config.seed ^ 0x5_99A1,
         false,
         Vec::new,
-        |kept: &mut Vec<Photon>, arrival: &Arrival| {
-            if arrival.diffuse_bounces + arrival.specular_bounces > 0 {
-                kept.push(arrival.photon);
+        |kept: &mut Vec<Vec3>, arrival: &Arrival| {
+            if is_gathered(arrival) {
+                kept.push(arrival.photon.position);
             }
             true
         },
@@ -457,12 +468,9 @@ fn visible_point(
 mod tests {
     use super::*;
 
-    fn photon_at(position: Vec3) -> Photon {
-        Photon { position, incoming: Vec3::Y, power: Vec3::ONE, normal: Vec3::Y, indirect: true }
-    }
-
-    fn density(photons: Vec<Photon>) -> Density {
-        Density { map: PhotonMap::new(photons), min_radius: 1e-4, max_radius: 0.4 }
+    fn density(positions: Vec<Vec3>) -> Density {
+        let points = PointTree::new(&positions, &vec![(); positions.len()]);
+        Density { points, min_radius: 1e-4, max_radius: 0.4 }
     }
 
     #[test]
@@ -471,7 +479,7 @@ mod tests {
         // sqrt(k / (pi n)) of a point inside.
         let mut rng = Rng::new(4, 4);
         for n in [10_000, 160_000] {
-            let photons = (0..n).map(|_| photon_at(Vec3::new(rng.uniform(), 0.0, rng.uniform()))).collect();
+            let photons = (0..n).map(|_| Vec3::new(rng.uniform(), 0.0, rng.uniform())).collect();
             let expected = (START_NEIGHBOURS as f32 / (PI * n as f32)).sqrt();
             let r = density(photons).radius_at(Vec3::new(0.5, 0.0, 0.5));
             assert!((r / expected - 1.0).abs() < 0.2, "{n} photons: {r} against {expected}");
@@ -482,7 +490,7 @@ mod tests {
     fn the_starting_radius_stays_within_its_bounds() {
         // None near: the largest; all at one point: the smallest, never zero.
         assert_eq!(density(Vec::new()).radius_at(Vec3::ZERO), 0.4);
-        assert_eq!(density(vec![photon_at(Vec3::X); 10]).radius_at(Vec3::ZERO), 0.4);
-        assert_eq!(density(vec![photon_at(Vec3::ZERO); 100]).radius_at(Vec3::ZERO), 1e-4);
+        assert_eq!(density(vec![Vec3::X; 10]).radius_at(Vec3::ZERO), 0.4);
+        assert_eq!(density(vec![Vec3::ZERO; 100]).radius_at(Vec3::ZERO), 1e-4);
     }
 }
