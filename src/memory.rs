@@ -24,9 +24,19 @@ const SPPM_BYTES_PER_PIXEL: u64 = 256;
 
 /// Bytes per stored photon: the record, twice while the traced chunks are
 /// joined, and the kd-tree (BENCHMARKS.md: 48 B and about 17 B), with the
-/// precomputed irradiance of at most every fourth photon (about 45 B each
-/// in its nearest-point tree; every twelfth at the default `global_k`).
-const PHOTON_BYTES: u64 = 2 * std::mem::size_of::<crate::photon::Photon>() as u64 + 17 + 16;
+/// precomputed irradiance of at most every fourth photon (every twelfth at
+/// the default `global_k`).
+const PHOTON_BYTES: u64 =
+    2 * std::mem::size_of::<crate::photon::Photon>() as u64 + 17 + IRRADIANCE_RECORD_BYTES.div_ceil(4);
+
+/// Bytes per precomputed irradiance record: about 45 B in its nearest-point
+/// tree, and its gather guide.
+const IRRADIANCE_RECORD_BYTES: u64 =
+    45 + std::mem::size_of::<Option<crate::photon::guide::GatherGuide>>() as u64;
+
+/// Bytes per photon of SPPM's density batch (for the starting radii): its
+/// position, twice while the chunks are joined, and its place in the tree.
+const DENSITY_POINT_BYTES: u64 = 2 * 12 + 8;
 
 /// Bytes per triangle of a mesh being built: positions, normals and indices
 /// (24 B, `caustix info`), with room for the tessellation's own arrays.
@@ -57,7 +67,8 @@ impl Estimate {
                 (pixels * FILM_BYTES_PER_PIXEL, (stored * PHOTON_BYTES as f64) as u64)
             }
             // One pass's splats, not a map: a few per photon; and, without
-            // a starting radius, a pass's photons kept for the pixels' own.
+            // a starting radius, where a pass's photons landed, kept for the
+            // pixels' own.
             IntegratorKind::Sppm => {
                 photons_setting = ("pass_photons", "the photons of a pass");
                 let splats = p.sppm.photons_per_pass as u64 * 64;
@@ -67,7 +78,7 @@ impl Estimate {
                 };
                 (
                     pixels * (FILM_BYTES_PER_PIXEL + SPPM_BYTES_PER_PIXEL),
-                    splats + (density * PHOTON_BYTES as f64) as u64,
+                    splats + (density * DENSITY_POINT_BYTES as f64) as u64,
                 )
             }
             // One pass's light vertices (one light subpath per pixel of
