@@ -137,9 +137,11 @@ impl<T: Copy> PointTree<T> {
             return found;
         }
         // Nodes still to visit: (node, first point, end, squared distance
-        // from q to the node's side of its parent's split). The tree is
-        // balanced, so its depth (and this stack) stays below 2 log2 n.
-        let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
+        // from q to the node's side of its parent's split). Each entry is
+        // from another level of the tree, which is balanced: fewer than 2^32
+        // points in leaves of up to 8 make at most 29 levels. (The array is
+        // zeroed on every query: 64 entries cost 7% more time than 32.)
+        let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 32];
         stack[0] = (0, 0, self.points.len() as u32, 0.0);
         let mut depth = 1;
         while depth > 0 {
