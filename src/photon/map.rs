@@ -141,8 +141,9 @@ impl PhotonMap {
     ///
     /// Panics beyond 2^32 photons (the settings cap photon counts far below).
     pub fn new(photons: Vec<Photon>) -> PhotonMap {
+        use rayon::prelude::*;
         let order = morton_order(&photons.iter().map(|p| p.position).collect::<Vec<_>>());
-        let photons: Vec<Photon> = order.iter().map(|&i| photons[i]).collect();
+        let photons: Vec<Photon> = order.par_iter().map(|&i| photons[i]).collect();
         let points: Vec<[f32; 3]> = photons.iter().map(|p| p.position.to_array()).collect();
         let tree = (!points.is_empty())
             .then(|| ImmutableKdTree::new_from_slice(&points).expect("fewer than 2^32 photons"));
@@ -462,7 +463,10 @@ fn close_disc(found: &mut Vec<(f32, usize)>, estimate: &Estimate) -> f32 {
 /// The indices of `points` in the order of a Morton (Z-order) curve through
 /// their bounding box, 10 bits per axis: points close in space come close in
 /// the order. Ties keep their index order.
+///
+/// Panics beyond 2^32 points (as the photon maps' kd-tree does).
 fn morton_order(points: &[Vec3]) -> Vec<usize> {
+    assert!(u32::try_from(points.len()).is_ok(), "fewer than 2^32 photons");
     let (lo, hi) =
         points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     let scale = 1023.0 / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
@@ -478,10 +482,12 @@ fn morton_order(points: &[Vec3]) -> Vec<usize> {
         spread(c.x) | (spread(c.y) << 1) | (spread(c.z) << 2)
     };
     use rayon::prelude::*;
-    let mut keyed: Vec<(u32, usize)> = points.par_iter().enumerate().map(|(i, &p)| (code(p), i)).collect();
-    // Unique keys: the unstable sort is as deterministic as a stable one.
+    // The code above the index: unique keys, so the unstable sort is as
+    // deterministic as a stable one.
+    let mut keyed: Vec<u64> =
+        points.par_iter().enumerate().map(|(i, &p)| (u64::from(code(p)) << 32) | i as u64).collect();
     keyed.par_sort_unstable();
-    keyed.into_iter().map(|(_, i)| i).collect()
+    keyed.par_iter().map(|key| (key & 0xffff_ffff) as usize).collect()
 }
 
 #[cfg(test)]
