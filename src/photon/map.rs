@@ -156,9 +156,9 @@ impl PhotonMap {
     /// The photons lie along a Morton curve (see [`PhotonMap::new`]): every
     /// `stride`-th of them spreads the records evenly over the lit surfaces,
     /// and consecutive estimates search the same part of the tree, each
-    /// starting from the radius the one before needed. The photons found do
-    /// not depend on that start (see `nearest_from`), so the records do not
-    /// depend on how the work is split between threads.
+    /// starting from the radius the one before needed (see `nearest_from`).
+    /// The records are made in fixed chunks of the curve, each in order from
+    /// its start, so they do not depend on how many threads share the chunks.
     pub fn precompute_irradiance(&mut self, stride: usize, estimate: &Estimate) {
         use rayon::prelude::*;
         let chosen: Vec<&Photon> = self.photons.iter().step_by(stride.max(1)).collect();
@@ -273,16 +273,19 @@ impl PhotonMap {
             .collect()
     }
 
-    /// [`PhotonMap::nearest`] into `search.found`, in the order (squared
-    /// distance, index), mostly by range searches instead of k-nearest
-    /// ones: a sphere around `p` whose squared radius starts at
-    /// `search.radius2` (set by the last search nearby) and grows until it
-    /// holds `k` photons or reaches `max_radius`; then the `k` nearest are
-    /// selected from it. The photons found are the `k` nearest, ties broken
-    /// by index, however the sphere started; only the time depends on it. A
-    /// range search visits each photon in it once, where the k-nearest
-    /// search keeps a heap: at `k = 100` the precomputation took 1.6x as
-    /// long with the k-nearest search (BENCHMARKS.md).
+    /// The photons [`PhotonMap::nearest`] finds, into `search.found`, the
+    /// `k`-th (when there are `k`) last and the others in no particular
+    /// order, mostly by range searches instead of k-nearest ones: a sphere
+    /// around `p` whose squared radius starts at `search.radius2` (set by
+    /// the last search nearby) and grows until it holds `k` photons or
+    /// reaches `max_radius`; then the `k` nearest are selected from it. The
+    /// photons found are the `k` nearest, ties broken by index, however the
+    /// sphere started; their order depends on the start (so sums over them
+    /// round differently), which depends only on the searches before in the
+    /// same fixed sequence, never on threads. A range search visits each
+    /// photon in it once, where the k-nearest search keeps a heap: at `k =
+    /// 100` the precomputation took 1.6x as long with the k-nearest search
+    /// (BENCHMARKS.md).
     fn nearest_from(&self, p: Vec3, k: usize, max_radius: f32, search: &mut Search) {
         search.found.clear();
         let Some(tree) = &self.tree else { return };
@@ -303,12 +306,13 @@ impl PhotonMap {
             }
         };
         self.nearest_in_tree(tree, p, k, start, max_r2, search);
-        let by_distance = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
-        if search.found.len() > k {
+        // The k nearest, the k-th last; ties broken by index. (Not sorted:
+        // sorting them cost a fifth of the precomputation.)
+        if search.found.len() >= k {
+            let by_distance = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
             search.found.select_nth_unstable_by(k - 1, by_distance);
             search.found.truncate(k);
         }
-        search.found.sort_unstable_by(by_distance);
         // The next search, nearby, starts a little beyond this one's k-th
         // photon, so that it usually needs a single pass.
         if let Some(&(farthest, _)) = search.found.last() {
@@ -441,7 +445,7 @@ impl PhotonMap {
 }
 
 /// The squared radius of the disc of an estimate whose search found `found`
-/// (nearest first), which keeps the photons inside it: the search's whole
+/// (the `k`-th, if found, last), which keeps the photons inside it: the search's whole
 /// disc when it found fewer than `k`, else the `k`-th photon's distance.
 fn close_disc(found: &mut Vec<(f32, usize)>, estimate: &Estimate) -> f32 {
     let whole_disc = estimate.max_radius * estimate.max_radius;
@@ -569,7 +573,13 @@ mod tests {
                 for start in [0.0, 1e-8, 1e-3, 0.5, 100.0] {
                     let mut search = Search { found: Vec::new(), radius2: start };
                     map.nearest_from(q, k, max_radius, &mut search);
-                    assert_eq!(search.found, brute, "k {k}, cap {max_radius}, start {start}");
+                    let mut found = search.found.clone();
+                    if found.len() == k {
+                        // The k-th last, as `close_disc` needs.
+                        assert_eq!(found.last(), brute.last(), "k {k}, cap {max_radius}, start {start}");
+                    }
+                    found.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                    assert_eq!(found, brute, "k {k}, cap {max_radius}, start {start}");
                 }
             }
         }
