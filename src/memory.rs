@@ -23,7 +23,9 @@ const FILM_BYTES_PER_PIXEL: u64 = 2 * std::mem::size_of::<crate::film::Sample>()
 const SPPM_BYTES_PER_PIXEL: u64 = 256;
 
 /// Bytes per stored photon: the record, twice while the traced chunks are
-/// joined, and the kd-tree (BENCHMARKS.md: 48 B and about 17 B), with the
+/// joined (and again while the map sorts them along its Morton curve, with
+/// 16 B of sort keys, before the tree and the records exist), and the
+/// kd-tree (BENCHMARKS.md: 48 B and about 17 B), with the
 /// precomputed irradiance of at most every fourth photon (every twelfth at
 /// the default `global_k`).
 const PHOTON_BYTES: u64 =

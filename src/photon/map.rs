@@ -143,7 +143,10 @@ impl PhotonMap {
     pub fn new(photons: Vec<Photon>) -> PhotonMap {
         use rayon::prelude::*;
         let order = morton_order(&photons.iter().map(|p| p.position).collect::<Vec<_>>());
-        let photons: Vec<Photon> = order.par_iter().map(|&i| photons[i]).collect();
+        let sorted: Vec<Photon> = order.par_iter().map(|&i| photons[i]).collect();
+        // Only one copy of the photons while the tree is built.
+        drop((photons, order));
+        let photons = sorted;
         let points: Vec<[f32; 3]> = photons.iter().map(|p| p.position.to_array()).collect();
         let tree = (!points.is_empty())
             .then(|| ImmutableKdTree::new_from_slice(&points).expect("fewer than 2^32 photons"));
