@@ -85,6 +85,14 @@ impl<'a> SceneQuery<'a> {
         self.accel.occluded(ray)
     }
 
+    /// [`SceneQuery::occluded`] for every ray of `rays` at once, into
+    /// `occluded` (as many): the intersector may trace them together
+    /// (Embree 3's ray streams). Counts one shadow ray each.
+    pub fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool], count: &mut RayCount) {
+        count.shadow += rays.len() as u64;
+        self.accel.occluded_batch(rays, occluded);
+    }
+
     /// The material of a surface point.
     pub fn material(&self, sp: &SurfacePoint) -> &'a Material {
         &self.scene.materials[sp.material]

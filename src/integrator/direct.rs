@@ -4,6 +4,8 @@
 
 use glam::Vec3;
 
+use crate::accel::Ray;
+
 use crate::bsdf::Bsdf;
 use crate::query::{RayCount, SceneQuery, SurfacePoint};
 use crate::sampling::{stratified, Rng};
@@ -23,9 +25,18 @@ pub enum LightSampling {
     MultipleImportance,
 }
 
+/// Shadow rays traced together, at most (they wait on the stack).
+const BATCH: usize = 16;
+
 /// Light arriving straight from the lights at `sp` and scattered towards
 /// the viewer by `bsdf`'s smooth lobes. Skips the shadow ray wherever the
 /// light cannot contribute.
+///
+/// The shadow rays go to the intersector in batches of up to [`BATCH`]
+/// (Embree 3 traces a batch as a ray stream, 1.3-1.7x faster than one by
+/// one: BENCHMARKS.md). Nothing random depends on whether a ray is blocked,
+/// and the unblocked contributions are added in the order they were drawn,
+/// so the result is the same to the bit whatever the batch size.
 pub fn direct_light(
     query: &SceneQuery,
     sp: &SurfacePoint,
@@ -34,6 +45,7 @@ pub fn direct_light(
     rng: &mut Rng,
     count: &mut RayCount,
 ) -> Vec3 {
+    let mut batch = ShadowBatch::new();
     let mut sum = Vec3::ZERO;
     for light in &query.scene.lights {
         let samples = match sampling {
@@ -48,10 +60,10 @@ pub fn direct_light(
                 continue;
             }
             let f = bsdf.eval(wi);
-            if f == Vec3::ZERO || query.occluded(&sp.spawn_to(ls.position), count) {
+            if f == Vec3::ZERO {
                 continue;
             }
-            sum += match sampling {
+            let contribution = match sampling {
                 LightSampling::Stratified { .. } => f * ls.irradiance * (cos / samples as f32),
                 LightSampling::MultipleImportance if light.is_delta() => f * ls.irradiance * cos,
                 LightSampling::MultipleImportance => {
@@ -60,7 +72,179 @@ pub fn direct_light(
                     f * ls.irradiance * cos * (p_light / (p_light + p_bsdf))
                 }
             };
+            if batch.push(sp.spawn_to(ls.position), contribution) {
+                sum = batch.flush(query, sum, count);
+            }
         }
     }
-    sum
+    batch.flush(query, sum, count)
+}
+
+/// Shadow rays waiting to be traced, each with the light it lets through.
+struct ShadowBatch {
+    rays: [Ray; BATCH],
+    contributions: [Vec3; BATCH],
+    len: usize,
+}
+
+impl ShadowBatch {
+    fn new() -> Self {
+        let nothing = Ray::new(Vec3::ZERO, Vec3::Z);
+        ShadowBatch { rays: [nothing; BATCH], contributions: [Vec3::ZERO; BATCH], len: 0 }
+    }
+
+    /// Adds a shadow ray; says whether the batch is now full.
+    fn push(&mut self, ray: Ray, contribution: Vec3) -> bool {
+        self.rays[self.len] = ray;
+        self.contributions[self.len] = contribution;
+        self.len += 1;
+        self.len == BATCH
+    }
+
+    /// Traces the waiting rays and adds, in order, what the unblocked ones
+    /// let through to `sum`; leaves the batch empty.
+    fn flush(&mut self, query: &SceneQuery, mut sum: Vec3, count: &mut RayCount) -> Vec3 {
+        let n = std::mem::take(&mut self.len);
+        let mut occluded = [false; BATCH];
+        match n {
+            0 => return sum,
+            // One ray: no batch to gain from.
+            1 => occluded[0] = query.occluded(&self.rays[0], count),
+            _ => query.occluded_batch(&self.rays[..n], &mut occluded[..n], count),
+        }
+        for (&c, &blocked) in self.contributions[..n].iter().zip(&occluded[..n]) {
+            if !blocked {
+                sum += c;
+            }
+        }
+        sum
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{self, Backend, Hit, Intersector};
+    use crate::query::Interaction;
+    use crate::scene::Scene;
+
+    /// Answers as the intersector it wraps, but traces batches ray by ray
+    /// (the trait's own `occluded_batch`).
+    struct OneByOne<'a>(&'a dyn Intersector);
+
+    impl Intersector for OneByOne<'_> {
+        fn intersect(&self, ray: &Ray) -> Option<Hit> {
+            self.0.intersect(ray)
+        }
+        fn occluded(&self, ray: &Ray) -> bool {
+            self.0.occluded(ray)
+        }
+        fn name(&self) -> String {
+            format!("{} one by one", self.0.name())
+        }
+    }
+
+    #[test]
+    fn batched_shadow_rays_give_the_same_light_to_the_bit() {
+        // A floor, a blocker half over it, two area lights and a point light.
+        let scene = Scene::from_toml(
+            r#"
+            [camera]
+            eye = [0, 3, 0]
+            look_at = [0, 0, 0]
+            up = [0, 0, 1]
+            [materials.m]
+            diffuse = 0.5
+            specular = 0.3
+            phong_exponent = 10
+            [[quad]]
+            center = [0, 0, 0]
+            u = [0, 0, 2]
+            v = [2, 0, 0]
+            material = "m"
+            [[quad]]
+            center = [0.5, 1, 0]
+            u = [0, 0, 0.5]
+            v = [0.5, 0, 0]
+            material = "m"
+            [[area_light]]
+            center = [0, 2, 0]
+            u = [0.6, 0, 0]
+            v = [0, 0, 0.6]
+            power = 20
+            [[area_light]]
+            center = [1, 1.8, 0.5]
+            u = [0.3, 0, 0]
+            v = [0, 0, 0.3]
+            power = 5
+            [[point_light]]
+            position = [-0.5, 1.5, 0.3]
+            power = 3
+        "#,
+            std::path::Path::new("blocker.toml"),
+        )
+        .unwrap();
+        let embree = accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
+        let batched = SceneQuery::new(&scene, embree.as_ref());
+        let single = OneByOne(embree.as_ref());
+        let one_by_one = SceneQuery::new(&scene, &single);
+        let (mut shadowed, mut lit) = (0, 0);
+        for i in 0..400 {
+            let (x, z) = ((i % 20) as f32 / 10.0 - 0.95, (i / 20) as f32 / 10.0 - 0.95);
+            let down = Ray::new(Vec3::new(x, 0.5, z), -Vec3::Y);
+            let mut count = RayCount::default();
+            let Some(Interaction::Surface(sp)) = batched.first(&down, &mut count) else {
+                panic!("floor missed")
+            };
+            let bsdf = Bsdf::new(batched.material(&sp), &sp, down.dir);
+            // 37 rays per area light: two full batches and a part of one.
+            for sampling in [LightSampling::Stratified { samples: 37 }, LightSampling::MultipleImportance] {
+                let (mut c1, mut c2) = (RayCount::default(), RayCount::default());
+                let a = direct_light(&batched, &sp, &bsdf, sampling, &mut Rng::new(3, i), &mut c1);
+                let b = direct_light(&one_by_one, &sp, &bsdf, sampling, &mut Rng::new(3, i), &mut c2);
+                assert_eq!(a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits), "at ({x}, {z})");
+                assert_eq!(c1, c2);
+                assert!(a.is_finite() && a.min_element() >= 0.0);
+            }
+            // Blocked rays are told apart from open ones: some points see
+            // all of the light, some only part of it.
+            let all = direct_light(
+                &batched,
+                &sp,
+                &bsdf,
+                LightSampling::Stratified { samples: 37 },
+                &mut Rng::new(3, i),
+                &mut count,
+            );
+            let unblocked = direct_light(
+                &SceneQuery::new(&scene, &NothingBlocks(embree.as_ref())),
+                &sp,
+                &bsdf,
+                LightSampling::Stratified { samples: 37 },
+                &mut Rng::new(3, i),
+                &mut count,
+            );
+            if all.x < 0.999 * unblocked.x {
+                shadowed += 1;
+            } else {
+                lit += 1;
+            }
+        }
+        assert!(shadowed > 20 && lit > 20, "{shadowed} shadowed, {lit} lit");
+    }
+
+    /// Answers as the intersector it wraps, except that no shadow ray is blocked.
+    struct NothingBlocks<'a>(&'a dyn Intersector);
+
+    impl Intersector for NothingBlocks<'_> {
+        fn intersect(&self, ray: &Ray) -> Option<Hit> {
+            self.0.intersect(ray)
+        }
+        fn occluded(&self, _: &Ray) -> bool {
+            false
+        }
+        fn name(&self) -> String {
+            "nothing blocks".into()
+        }
+    }
 }

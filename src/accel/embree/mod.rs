@@ -396,6 +396,9 @@ impl Drop for EmbreeIntersector<'_> {
     }
 }
 
+/// Shadow rays per call of `rtcOccluded1M` in [`Intersector::occluded_batch`].
+const SHADOW_CHUNK: usize = 16;
+
 /// Embree's ray-and-hit record for `ray`, with the hit marked empty.
 fn new_rayhit(ray: &Ray, scale: f32) -> ffi::RTCRayHit {
     ffi::RTCRayHit { ray: EmbreeIntersector::ray(ray, scale), hit: ffi::empty_hit() }
@@ -493,14 +496,25 @@ impl Intersector for EmbreeIntersector<'_> {
         }
     }
 
-    /// As [`Intersector::intersect_batch`], for shadow rays (`rtcOccluded1M`).
+    /// As [`Intersector::intersect_batch`], for shadow rays (`rtcOccluded1M`),
+    /// in chunks of [`SHADOW_CHUNK`] records on the stack: the integrators
+    /// hand over a few rays at a time, for which a heap allocation per call
+    /// would cost about as much as Embree saves.
     fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one result slot per ray");
-        let mut records: Vec<ffi::RTCRay> = rays.iter().map(|r| Self::ray(r, self.dir_scale)).collect();
-        // SAFETY: as in `intersect_batch`, for an array of `RTCRay`.
-        unsafe { ffi::occluded_many(self.scene, &mut records) };
-        for (record, o) in records.iter().zip(occluded) {
-            *o = record.tfar == f32::NEG_INFINITY;
+        let Some(first) = rays.first() else { return };
+        let mut records = [Self::ray(first, self.dir_scale); SHADOW_CHUNK];
+        for (rays, occluded) in rays.chunks(SHADOW_CHUNK).zip(occluded.chunks_mut(SHADOW_CHUNK)) {
+            let records = &mut records[..rays.len()];
+            for (record, ray) in records.iter_mut().zip(rays) {
+                *record = Self::ray(ray, self.dir_scale);
+            }
+            // SAFETY: as in `intersect_batch`, for an array of `RTCRay`
+            // (16-byte aligned by the type's `repr(align(16))`).
+            unsafe { ffi::occluded_many(self.scene, records) };
+            for (record, o) in records.iter().zip(occluded.iter_mut()) {
+                *o = record.tfar == f32::NEG_INFINITY;
+            }
         }
     }
 
