@@ -64,7 +64,29 @@ impl<'a> SceneQuery<'a> {
     /// leaves the scene. Counts one ray.
     pub fn first(&self, ray: &Ray, count: &mut RayCount) -> Option<Interaction<'a>> {
         count.closest += 1;
-        let hit = self.accel.intersect(ray);
+        self.interaction(ray, self.accel.intersect(ray))
+    }
+
+    /// [`SceneQuery::first`] for every ray of `rays` at once, into `first`
+    /// (as many): the intersector may trace them together (Embree 3's ray
+    /// streams). The answers are those `first` gives. Counts one ray each.
+    pub fn first_batch(&self, rays: &[Ray], first: &mut [Option<Interaction<'a>>], count: &mut RayCount) {
+        assert_eq!(rays.len(), first.len(), "one answer per ray");
+        count.closest += rays.len() as u64;
+        const CHUNK: usize = 16;
+        let mut hits = [None; CHUNK];
+        for (rays, first) in rays.chunks(CHUNK).zip(first.chunks_mut(CHUNK)) {
+            let hits = &mut hits[..rays.len()];
+            self.accel.intersect_batch(rays, hits);
+            for ((ray, hit), out) in rays.iter().zip(hits.iter()).zip(first) {
+                *out = self.interaction(ray, *hit);
+            }
+        }
+    }
+
+    /// What `ray` meets first, given the closest triangle it hits: an area
+    /// light's front before it, or the surface there.
+    fn interaction(&self, ray: &Ray, hit: Option<Hit>) -> Option<Interaction<'a>> {
         let nearest = Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..*ray };
         if let Some((light, t, radiance)) = nearest_emitter(&self.scene.lights, &nearest) {
             return Some(Interaction::Emitter { light, t, radiance });

@@ -145,6 +145,9 @@ impl Integrator for PhotonMapping {
     }
 }
 
+/// Gather rays traced together, at most (they wait on the stack).
+const GATHER_BATCH: usize = 16;
+
 /// Caustics and indirect light from the photon maps.
 struct MapLight<'a> {
     query: SceneQuery<'a>,
@@ -205,41 +208,57 @@ impl MapLight<'_> {
     ) -> Vec3 {
         let n = ((self.gather_per_sample as f32 * throughput.max_element().min(1.0)).ceil() as u32).max(1);
         let guide = self.guided.then(|| global.gather_guide(sp.p, sp.ns, &self.global_estimate)).flatten();
+        // The rays go out in batches: every direction of a batch is drawn
+        // first, then the batch is traced at once (Embree 3's ray streams),
+        // then each hit is shaded in order. Only the order of draws decides
+        // the image, never how the intersector takes the batch.
         let mut sum = Vec3::ZERO;
-        for i in 0..n {
-            let u = stratified(i, n, rng);
-            // With pdf = cos / pi, cos / pdf = pi.
-            let (local, cos_over_pdf) = match &guide {
-                Some(guide) => guide.sample(u),
-                None => (cosine_hemisphere(u), PI),
-            };
-            let wi = around(sp.ns, local);
-            if wi.dot(sp.ng) <= 0.0 {
-                continue;
+        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); GATHER_BATCH];
+        let mut weights = [(Vec3::ZERO, 0.0); GATHER_BATCH];
+        let mut first = [None; GATHER_BATCH];
+        for start in (0..n).step_by(GATHER_BATCH) {
+            let mut len = 0;
+            for i in start..(start + GATHER_BATCH as u32).min(n) {
+                let u = stratified(i, n, rng);
+                // With pdf = cos / pi, cos / pdf = pi.
+                let (local, cos_over_pdf) = match &guide {
+                    Some(guide) => guide.sample(u),
+                    None => (cosine_hemisphere(u), PI),
+                };
+                let wi = around(sp.ns, local);
+                if wi.dot(sp.ng) <= 0.0 {
+                    continue;
+                }
+                (rays[len], weights[len]) = (sp.spawn(wi), (bsdf.eval(wi), cos_over_pdf));
+                len += 1;
             }
-            let incoming = self.gather_radiance(&sp.spawn(wi), global, 0, rng, count);
-            if incoming != Vec3::ZERO {
-                sum += bsdf.eval(wi) * incoming * cos_over_pdf;
+            self.query.first_batch(&rays[..len], &mut first[..len], count);
+            for ((ray, &(f, cos_over_pdf)), first) in rays.iter().zip(&weights).zip(&first).take(len) {
+                let incoming = self.gathered(ray, *first, global, 0, rng, count);
+                if incoming != Vec3::ZERO {
+                    sum += f * incoming * cos_over_pdf;
+                }
             }
         }
         sum / n as f32
     }
 
     /// Radiance along a gather ray that has bounced diffusely at least once
-    /// before: the global map's estimate where it meets a diffuse surface,
+    /// before, given what it meets `first`: the global map's estimate where it meets a diffuse surface,
     /// through mirrors and glass on the way. Light seen straight from a light
     /// (or through mirrors and glass only) is not counted: shadow rays and the
     /// caustic map already hold it.
-    fn gather_radiance(
+    fn gathered(
         &self,
         ray: &Ray,
+        first: Option<Interaction>,
         global: &PhotonMap,
         bounces: u32,
         rng: &mut Rng,
         count: &mut RayCount,
     ) -> Vec3 {
         // The light's front is black here: its light is the shadow rays' part.
-        let Some(Interaction::Surface(sp)) = self.query.first(ray, count) else { return Vec3::ZERO };
+        let Some(Interaction::Surface(sp)) = first else { return Vec3::ZERO };
         let m = self.query.material(&sp);
         if m.is_glossy_or_diffuse() {
             return global.precomputed_radiance(sp.p, sp.ns, m, &self.global_estimate);
@@ -249,7 +268,9 @@ impl MapLight<'_> {
         }
         let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
         let Some(s) = bsdf.sample_specular(rng) else { return Vec3::ZERO };
-        s.weight * self.gather_radiance(&sp.spawn(s.wi), global, bounces + 1, rng, count)
+        let next = sp.spawn(s.wi);
+        let first = self.query.first(&next, count);
+        s.weight * self.gathered(&next, first, global, bounces + 1, rng, count)
     }
 }
 

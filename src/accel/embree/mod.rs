@@ -396,8 +396,43 @@ impl Drop for EmbreeIntersector<'_> {
     }
 }
 
-/// Shadow rays per call of `rtcOccluded1M` in [`Intersector::occluded_batch`].
-const SHADOW_CHUNK: usize = 16;
+/// Batches of fewer rays than this are traced ray by ray: a stream of 4
+/// final-gathering rays made the photon-mapped Cornell box 4-6% slower.
+const MIN_STREAM: usize = 8;
+
+/// Batches of at most this many rays are converted into Embree's records on
+/// the stack: the integrators hand over a few rays at a time, for which a
+/// heap allocation per call would cost about as much as the stream saves.
+const STACK_BATCH: usize = 16;
+
+/// Converts `rays` into Embree's records with `record`, hands them to
+/// `trace` in one call, and reads each back with `read(index, record)`: on
+/// the stack for batches of up to [`STACK_BATCH`], else in one allocation
+/// (a longer stream lets Embree reorder more).
+fn in_records<R: Copy>(
+    rays: &[Ray],
+    record: impl Fn(&Ray) -> R,
+    trace: impl FnOnce(&mut [R]),
+    mut read: impl FnMut(usize, &R),
+) {
+    let Some(first) = rays.first() else { return };
+    let mut on_stack;
+    let mut on_heap;
+    let records: &mut [R] = if rays.len() <= STACK_BATCH {
+        on_stack = [record(first); STACK_BATCH];
+        for (r, ray) in on_stack.iter_mut().zip(rays) {
+            *r = record(ray);
+        }
+        &mut on_stack[..rays.len()]
+    } else {
+        on_heap = rays.iter().map(&record).collect::<Vec<R>>();
+        &mut on_heap
+    };
+    trace(records);
+    for (i, r) in records.iter().enumerate() {
+        read(i, r);
+    }
+}
 
 /// Embree's ray-and-hit record for `ray`, with the hit marked empty.
 fn new_rayhit(ray: &Ray, scale: f32) -> ffi::RTCRayHit {
@@ -482,40 +517,45 @@ impl Intersector for EmbreeIntersector<'_> {
         r.tfar == f32::NEG_INFINITY
     }
 
-    /// The whole batch in one call into Embree's ray-stream API
-    /// (`rtcIntersect1M`) with Embree 3; ray by ray with Embree 4, which has
-    /// no streams.
+    /// The batch through Embree's ray-stream API (`rtcIntersect1M`) with
+    /// Embree 3 (ray by ray with Embree 4, which has no streams).
     fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        let mut records: Vec<ffi::RTCRayHit> = rays.iter().map(|r| new_rayhit(r, self.dir_scale)).collect();
-        // SAFETY: the scene is committed; `records` is a live array of valid
-        // records, 16-byte aligned (Vec honours the type's alignment).
-        unsafe { ffi::intersect_many(self.scene, &mut records) };
-        for (record, hit) in records.iter().zip(hits) {
-            *hit = hit_of(record, self.dir_scale);
+        if rays.len() < MIN_STREAM {
+            for (ray, hit) in rays.iter().zip(hits) {
+                *hit = self.intersect(ray);
+            }
+            return;
         }
+        let scale = self.dir_scale;
+        in_records(
+            rays,
+            |ray| new_rayhit(ray, scale),
+            // SAFETY: the scene is committed; `records` is a live array of
+            // valid records, 16-byte aligned by the type's `repr(align(16))`.
+            |records| unsafe { ffi::intersect_many(self.scene, records) },
+            |i, record| hits[i] = hit_of(record, scale),
+        );
     }
 
-    /// As [`Intersector::intersect_batch`], for shadow rays (`rtcOccluded1M`),
-    /// in chunks of [`SHADOW_CHUNK`] records on the stack: the integrators
-    /// hand over a few rays at a time, for which a heap allocation per call
-    /// would cost about as much as Embree saves.
+    /// As [`Intersector::intersect_batch`], for shadow rays (`rtcOccluded1M`).
     fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one result slot per ray");
-        let Some(first) = rays.first() else { return };
-        let mut records = [Self::ray(first, self.dir_scale); SHADOW_CHUNK];
-        for (rays, occluded) in rays.chunks(SHADOW_CHUNK).zip(occluded.chunks_mut(SHADOW_CHUNK)) {
-            let records = &mut records[..rays.len()];
-            for (record, ray) in records.iter_mut().zip(rays) {
-                *record = Self::ray(ray, self.dir_scale);
+        if rays.len() < MIN_STREAM {
+            for (ray, o) in rays.iter().zip(occluded) {
+                *o = self.occluded(ray);
             }
-            // SAFETY: as in `intersect_batch`, for an array of `RTCRay`
-            // (16-byte aligned by the type's `repr(align(16))`).
-            unsafe { ffi::occluded_many(self.scene, records) };
-            for (record, o) in records.iter().zip(occluded.iter_mut()) {
-                *o = record.tfar == f32::NEG_INFINITY;
-            }
+            return;
         }
+        let scale = self.dir_scale;
+        in_records(
+            rays,
+            |ray| Self::ray(ray, scale),
+            // SAFETY: as in `intersect_batch`, for an array of `RTCRay`.
+            |records| unsafe { ffi::occluded_many(self.scene, records) },
+            // Embree marks an occluded ray by setting tfar to -infinity.
+            |i, record| occluded[i] = record.tfar == f32::NEG_INFINITY,
+        );
     }
 
     fn name(&self) -> String {
