@@ -185,6 +185,14 @@ pub trait Intersector: Send + Sync {
         }
     }
 
+    /// Whether handing over `rays` rays as one batch is faster than one by
+    /// one; callers that would gather them for a batch only to trace them
+    /// singly skip the gathering (direct light's shadow rays). No by default.
+    fn batches_pay(&self, rays: usize) -> bool {
+        let _ = rays;
+        false
+    }
+
     /// A short name for logs and benchmarks, e.g. `"embree 3.13.5"`.
     fn name(&self) -> String;
 }

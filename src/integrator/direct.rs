@@ -32,11 +32,11 @@ const BATCH: usize = 16;
 /// the viewer by `bsdf`'s smooth lobes. Skips the shadow ray wherever the
 /// light cannot contribute.
 ///
-/// The shadow rays go to the intersector in batches of up to [`BATCH`]
-/// (Embree 3 traces a batch as a ray stream, 1.3-1.7x faster than one by
-/// one: BENCHMARKS.md). Nothing random depends on whether a ray is blocked,
-/// and the unblocked contributions are added in the order they were drawn,
-/// so the result is the same to the bit whatever the batch size.
+/// Where the intersector says batches pay (Embree 3 from 8 rays on, as ray
+/// streams: 1.2x faster at 16 light samples, BENCHMARKS.md), the shadow rays
+/// go to it in batches of up to [`BATCH`]. Nothing random depends on whether
+/// a ray is blocked, and the unblocked contributions are added in the order
+/// they were drawn, so the result is the same to the bit either way.
 pub fn direct_light(
     query: &SceneQuery,
     sp: &SurfacePoint,
@@ -45,13 +45,16 @@ pub fn direct_light(
     rng: &mut Rng,
     count: &mut RayCount,
 ) -> Vec3 {
-    let mut batch = ShadowBatch::new();
+    let samples = |light: &crate::light::Light| match sampling {
+        LightSampling::Stratified { samples } if !light.is_delta() => samples,
+        _ => 1,
+    };
+    let rays: u32 = query.scene.lights.iter().map(samples).sum();
+    // Where a batch would not pay, each shadow ray is traced as it is drawn.
+    let mut batch = query.accel.batches_pay(rays.min(BATCH as u32) as usize).then(ShadowBatch::new);
     let mut sum = Vec3::ZERO;
     for light in &query.scene.lights {
-        let samples = match sampling {
-            LightSampling::Stratified { samples } if !light.is_delta() => samples,
-            _ => 1,
-        };
+        let samples = samples(light);
         for i in 0..samples {
             let Some(ls) = light.sample_incident(sp.p, stratified(i, samples, rng)) else { continue };
             let wi = (ls.position - sp.p).normalize();
@@ -72,12 +75,25 @@ pub fn direct_light(
                     f * ls.irradiance * cos * (p_light / (p_light + p_bsdf))
                 }
             };
-            if batch.push(sp.spawn_to(ls.position), contribution) {
-                sum = batch.flush(query, sum, count);
+            let ray = sp.spawn_to(ls.position);
+            match &mut batch {
+                Some(batch) => {
+                    if batch.push(ray, contribution) {
+                        sum = batch.flush(query, sum, count);
+                    }
+                }
+                None => {
+                    if !query.occluded(&ray, count) {
+                        sum += contribution;
+                    }
+                }
             }
         }
     }
-    batch.flush(query, sum, count)
+    match &mut batch {
+        Some(batch) => batch.flush(query, sum, count),
+        None => sum,
+    }
 }
 
 /// Shadow rays waiting to be traced, each with the light it lets through.

@@ -25,6 +25,9 @@ mod embree3 {
     /// How [`intersect_many`] and [`occluded_many`] hand rays to Embree.
     pub const BATCH_CALL: &str = "ray streams (rtcIntersect1M)";
 
+    /// Whether [`intersect_many`] and [`occluded_many`] trace streams.
+    pub const STREAMS: bool = true;
+
     /// `#define RTC_INVALID_GEOMETRY_ID ((unsigned int)-1)`: a cast bindgen cannot evaluate.
     pub const RTC_INVALID_GEOMETRY_ID: u32 = u32::MAX;
 
@@ -100,6 +103,9 @@ mod embree4 {
     /// How [`intersect_many`] and [`occluded_many`] hand rays to Embree:
     /// Embree 4 has no ray streams.
     pub const BATCH_CALL: &str = "single rays (Embree 4 has no ray streams)";
+
+    /// Whether [`intersect_many`] and [`occluded_many`] trace streams.
+    pub const STREAMS: bool = false;
 
     pub const RTC_ERROR_NONE: RTCError = RTCError::NONE;
     pub const RTC_ERROR_UNKNOWN: RTCError = RTCError::UNKNOWN;

@@ -397,7 +397,8 @@ impl Drop for EmbreeIntersector<'_> {
 }
 
 /// Batches of fewer rays than this are traced ray by ray: a stream of 4
-/// final-gathering rays made the photon-mapped Cornell box 4-6% slower.
+/// final-gathering rays made the photon-mapped Cornell box 4-6% slower
+/// (BENCHMARKS.md, "Rays in batches").
 const MIN_STREAM: usize = 8;
 
 /// Batches of at most this many rays are converted into Embree's records on
@@ -521,7 +522,7 @@ impl Intersector for EmbreeIntersector<'_> {
     /// Embree 3 (ray by ray with Embree 4, which has no streams).
     fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        if rays.len() < MIN_STREAM {
+        if !self.batches_pay(rays.len()) {
             for (ray, hit) in rays.iter().zip(hits) {
                 *hit = self.intersect(ray);
             }
@@ -541,7 +542,7 @@ impl Intersector for EmbreeIntersector<'_> {
     /// As [`Intersector::intersect_batch`], for shadow rays (`rtcOccluded1M`).
     fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one result slot per ray");
-        if rays.len() < MIN_STREAM {
+        if !self.batches_pay(rays.len()) {
             for (ray, o) in rays.iter().zip(occluded) {
                 *o = self.occluded(ray);
             }
@@ -556,6 +557,11 @@ impl Intersector for EmbreeIntersector<'_> {
             // Embree marks an occluded ray by setting tfar to -infinity.
             |i, record| occluded[i] = record.tfar == f32::NEG_INFINITY,
         );
+    }
+
+    /// With Embree 3, from [`MIN_STREAM`] rays on; never with Embree 4.
+    fn batches_pay(&self, rays: usize) -> bool {
+        ffi::STREAMS && rays >= MIN_STREAM
     }
 
     fn name(&self) -> String {
