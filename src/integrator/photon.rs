@@ -215,7 +215,6 @@ impl MapLight<'_> {
         let mut sum = Vec3::ZERO;
         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); GATHER_BATCH];
         let mut weights = [(Vec3::ZERO, 0.0); GATHER_BATCH];
-        let mut first = [None; GATHER_BATCH];
         for start in (0..n).step_by(GATHER_BATCH) {
             let mut len = 0;
             for i in start..(start + GATHER_BATCH as u32).min(n) {
@@ -232,11 +231,24 @@ impl MapLight<'_> {
                 (rays[len], weights[len]) = (sp.spawn(wi), (bsdf.eval(wi), cos_over_pdf));
                 len += 1;
             }
-            self.query.first_batch(&rays[..len], &mut first[..len], count);
-            for ((ray, &(f, cos_over_pdf)), first) in rays.iter().zip(&weights).zip(&first).take(len) {
-                let incoming = self.gathered(ray, *first, global, 0, rng, count);
+            let mut add = |j: usize, first: Option<Interaction>, count: &mut RayCount| {
+                let incoming = self.gathered(&rays[j], first, global, 0, rng, count);
                 if incoming != Vec3::ZERO {
+                    let (f, cos_over_pdf) = weights[j];
                     sum += f * incoming * cos_over_pdf;
+                }
+            };
+            // The same answers either way; where a batch would be traced ray
+            // by ray anyway, no array of answers is filled first.
+            if self.query.accel.batches_pay(len) {
+                let mut first = [None; GATHER_BATCH];
+                self.query.first_batch(&rays[..len], &mut first[..len], count);
+                for (j, &first) in first[..len].iter().enumerate() {
+                    add(j, first, count);
+                }
+            } else {
+                for (j, ray) in rays[..len].iter().enumerate() {
+                    add(j, self.query.first(ray, count), count);
                 }
             }
         }
