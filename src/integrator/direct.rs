@@ -34,7 +34,7 @@ const BATCH: usize = 16;
 ///
 /// Where the intersector says batches pay (Embree 3 from 8 rays on, as ray
 /// streams: 1.2x faster at 16 light samples, BENCHMARKS.md), the shadow rays
-/// go to it in batches of up to [`BATCH`]. Nothing random depends on whether
+/// go to it in batches of up to 16. Nothing random depends on whether
 /// a ray is blocked, and the unblocked contributions are added in the order
 /// they were drawn, so the result is the same to the bit either way.
 pub fn direct_light(

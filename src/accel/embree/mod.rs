@@ -559,7 +559,7 @@ impl Intersector for EmbreeIntersector<'_> {
         );
     }
 
-    /// With Embree 3, from [`MIN_STREAM`] rays on; never with Embree 4.
+    /// With Embree 3, from 8 rays on; never with Embree 4.
     fn batches_pay(&self, rays: usize) -> bool {
         ffi::STREAMS && rays >= MIN_STREAM
     }
