@@ -153,7 +153,9 @@ pub struct PhotonConfig {
     /// Cone filter constant for caustic estimates (at least 1); `None`: no filter.
     pub cone_filter: Option<f32>,
     /// Final-gathering rays per camera sample (so the gathering grows with
-    /// the samples); 0 shows the global map directly.
+    /// the samples); 0 shows the global map directly. With a time budget
+    /// of 2 s or more (and a count above 0) photon mapping chooses the
+    /// count for itself by a pilot.
     pub gather_rays: u32,
     /// Whether gather rays favour the directions the global map's photons
     /// came from (Jensen 1995), rather than follow the cosine alone.

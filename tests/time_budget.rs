@@ -21,20 +21,39 @@ fn cornell() -> Scene {
 fn samples_taken_in_rounds_make_the_plain_render_of_as_many_samples() {
     let scene = cornell();
     let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
-    for integrator in [IntegratorKind::Path, IntegratorKind::Photon, IntegratorKind::Whitted] {
+    // Photon mapping also at 2 s, where its pilot chooses the gather rays.
+    let runs = [
+        (IntegratorKind::Path, 0.3),
+        (IntegratorKind::Photon, 0.3),
+        (IntegratorKind::Photon, 2.0),
+        (IntegratorKind::Whitted, 0.3),
+    ];
+    for (integrator, seconds) in runs {
         let mut config =
-            RenderConfig { integrator, width: 8, height: 8, time: Some(0.3), ..scene.config.clone() };
+            RenderConfig { integrator, width: 8, height: 8, time: Some(seconds), ..scene.config.clone() };
         config.photons.global_photons = 5_000;
         config.photons.caustic_photons = 5_000;
         let timed = caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap();
         let n = timed.stats.samples_per_pixel;
-        assert!(n >= 2, "{integrator:?}: only {n} samples in 0.3 s");
+        assert!(n >= 2, "{integrator:?}: only {n} samples in {seconds} s");
         assert!(
             timed.stats.notes.iter().any(|l| l.contains(&format!("{n} samples per pixel"))),
             "{:?}",
             timed.stats.notes
         );
-        let plain = RenderConfig { time: None, samples: n, ..config };
+        let mut plain = RenderConfig { time: None, samples: n, ..config };
+        // From 2 s on photon mapping's rounds take the gather rays its pilot
+        // chose; below, the setting.
+        let piloted = timed.stats.notes.iter().any(|l| l.starts_with("gather rays: "));
+        assert_eq!(
+            piloted,
+            integrator == IntegratorKind::Photon && seconds >= 2.0,
+            "{:?}",
+            timed.stats.notes
+        );
+        if piloted {
+            plain.photons.gather_rays = chosen_gather_rays(&timed.stats.notes);
+        }
         let plain = caustix::render(&scene, accel.as_ref(), &plain, &|_| {}).unwrap();
         for (i, (a, b)) in timed.film.pixels.iter().zip(&plain.film.pixels).enumerate() {
             let (a, b) = (a.total(), b.total());
@@ -44,6 +63,47 @@ fn samples_taken_in_rounds_make_the_plain_render_of_as_many_samples() {
             );
         }
     }
+}
+
+/// The gather rays per camera sample a photon-mapped render to a time
+/// budget chose, from its summary notes.
+fn chosen_gather_rays(notes: &[String]) -> u32 {
+    let note =
+        notes.iter().find_map(|l| l.strip_prefix("gather rays: ")).unwrap_or_else(|| panic!("{notes:?}"));
+    note.split(' ').next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn the_budget_chooses_more_gather_rays_where_gathering_is_more_of_the_noise() {
+    // Under a point light nearly all of photon mapping's noise is final
+    // gathering's; under the area light soft shadows and the light's edges
+    // weigh as much, and more rays mostly cost time (measured at 128 x 128
+    // and 256 x 256: 16 rays a sample best under the point light, 1 to 4
+    // under the area light; BENCHMARKS.md, "Gather rays chosen per scene").
+    // The variances the pilot measured do not depend on the machine's
+    // speed: 16 rays must cut the point light's far more than the area
+    // light's. The choice weighs them by time, so it is held loosely.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let pilot = |file: &str| {
+        let scene = Scene::load(&root.join("scenes").join(file)).unwrap();
+        let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
+        let config = RenderConfig { width: 96, height: 96, time: Some(2.0), ..scene.config.clone() };
+        let rendered = caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap();
+        let notes = rendered.stats.notes;
+        let note =
+            notes.iter().find(|l| l.starts_with("gather rays: ")).unwrap_or_else(|| panic!("{notes:?}"));
+        // "... 1 rays V x T us, 4 rays V x T us, 16 rays V x T us)"
+        let variance = |rays: u32| -> f64 {
+            let at = note.find(&format!(" {rays} rays ")).unwrap_or_else(|| panic!("{note}"));
+            note[at..].split(' ').nth(3).unwrap().parse().unwrap()
+        };
+        (chosen_gather_rays(&notes), variance(1) / variance(16), note.clone())
+    };
+    let (point, point_cut, point_note) = pilot("cornell-point.toml");
+    let (area, area_cut, area_note) = pilot("cornell.toml");
+    assert!(point_cut > 4.0 * area_cut, "{point_note}\n{area_note}");
+    assert!(area_cut < 2.0, "{area_note}");
+    assert!(point >= area && point > 1, "{point_note}\n{area_note}");
 }
 
 #[test]

@@ -33,7 +33,8 @@ pub struct RenderArgs {
     /// Refine for this many seconds instead of a fixed sample count: more
     /// camera samples (and gather rays) in rounds for the path tracer,
     /// Whitted and photon mapping, more passes for SPPM, VCM, BDPT and
-    /// light tracing (overrides [render] time).
+    /// light tracing; from 2 s on, photon mapping chooses its gather rays
+    /// per sample by a short pilot (overrides [render] time).
     #[arg(long)]
     time: Option<f32>,
     /// With a time budget: write the output image (not denoised) each time
@@ -123,7 +124,8 @@ pub struct SettingArgs {
     #[arg(long)]
     caustic_radius: Option<f32>,
     /// Final-gathering rays per camera sample; 0 shows the global map
-    /// directly (overrides [photons] gather_rays).
+    /// directly; with a time budget of 2 s or more, a pilot chooses the
+    /// count unless it is 0 (overrides [photons] gather_rays).
     #[arg(long)]
     gather_rays: Option<u32>,
     /// Whether gather rays favour the directions the global map's photons

@@ -114,6 +114,13 @@ pub trait Integrator: Sync {
         None
     }
 
+    /// Settings for all the rounds of a render to a time budget, measured
+    /// on the scene with the maps built for them (`ctx.photon_maps`), and a
+    /// note for the summary; `None`: the settings as given.
+    fn tuned_for_time(&self, _ctx: &Context) -> Option<(RenderConfig, String)> {
+        None
+    }
+
     /// Renders the image: the samples of `ctx.samples`, or (SPPM) as many
     /// passes as the settings or the time budget ask.
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered;
@@ -225,6 +232,11 @@ fn render_to_time(
         None => integrator.photon_maps(ctx),
     };
     let ctx = Context { photon_maps: ctx.photon_maps.or(built.as_ref()), ..*ctx };
+    let tuned = integrator.tuned_for_time(&ctx);
+    let ctx = match &tuned {
+        Some((config, _)) => Context { config, ..ctx },
+        None => ctx,
+    };
     let max = crate::config::limits::MAX_SAMPLES;
     let (mut done, mut batch, mut rounds) = (0u32, 1u32, 0u32);
     let mut sum: Vec<crate::film::Sample> = Vec::new();
@@ -265,6 +277,7 @@ fn render_to_time(
         "time budget {:.1} s: {done} samples per pixel in {rounds} rounds",
         budget.as_secs_f64()
     ));
+    rendered.stats.notes.extend(tuned.map(|(_, note)| note));
     rendered
 }
 

@@ -3,6 +3,8 @@
 //! caustics from the caustic map and indirect light from the global map,
 //! read by final gathering (or shown directly when there are no gather rays).
 
+mod gather_count;
+
 use std::f32::consts::PI;
 
 use glam::Vec3;
@@ -109,8 +111,22 @@ impl Integrator for PhotonMapping {
         Some(maps)
     }
 
+    /// With final gathering and a budget of at least 2 s (`PILOT_FROM_SECONDS`),
+    /// the gather rays per camera sample that spend the budget best, from a
+    /// pilot on the maps built (`gather_count`).
+    fn tuned_for_time(&self, ctx: &Context) -> Option<(RenderConfig, String)> {
+        let maps = ctx.photon_maps?;
+        let budget = ctx.config.time? as f64;
+        if !maps.for_gathering || maps.global.is_none() || budget < PILOT_FROM_SECONDS {
+            return None;
+        }
+        let (gather_rays, note) = gather_count::choose(ctx, &MapLight::new(ctx, maps), budget);
+        let mut tuned = ctx.config.clone();
+        tuned.photons.gather_rays = gather_rays;
+        Some((tuned, note))
+    }
+
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
-        let photons = &ctx.config.photons;
         let traced;
         let maps = match ctx.photon_maps {
             Some(loaded) => loaded,
@@ -119,14 +135,7 @@ impl Integrator for PhotonMapping {
                 &traced
             }
         };
-        let light = MapLight {
-            query: ctx.query,
-            maps,
-            global_estimate: photons.global_estimate(ctx.diagonal),
-            caustic_estimate: photons.caustic_estimate(ctx.diagonal),
-            gather_per_sample: photons.gather_rays,
-            guided: photons.guided_gathering,
-        };
+        let light = MapLight::new(ctx, maps);
         let tracer = WhittedTracer { ctx, surface_light: Some(&light) };
         let s = &maps.stats;
         let mut notes = vec![if s.loaded {
@@ -145,10 +154,17 @@ impl Integrator for PhotonMapping {
     }
 }
 
+/// The shortest budget for which photon mapping chooses its gather rays by
+/// a pilot: at 1 s on the 256 x 256 Cornell boxes the pilot's 0.1-0.15 s
+/// cost more samples than its choice gave back (RMSE 0.24 -> 0.29 under
+/// the point light, the same under the area light; BENCHMARKS.md).
+const PILOT_FROM_SECONDS: f64 = 2.0;
+
 /// Gather rays traced together, at most (they wait on the stack).
 const GATHER_BATCH: usize = 16;
 
 /// Caustics and indirect light from the photon maps.
+#[derive(Clone, Copy)]
 struct MapLight<'a> {
     query: SceneQuery<'a>,
     maps: &'a PhotonMaps,
@@ -158,6 +174,21 @@ struct MapLight<'a> {
     gather_per_sample: u32,
     /// Whether gather rays follow the global map's guides (where it has them).
     guided: bool,
+}
+
+impl<'a> MapLight<'a> {
+    /// The light of `maps` with the settings of `ctx`.
+    fn new(ctx: &Context<'a>, maps: &'a PhotonMaps) -> Self {
+        let photons = &ctx.config.photons;
+        MapLight {
+            query: ctx.query,
+            maps,
+            global_estimate: photons.global_estimate(ctx.diagonal),
+            caustic_estimate: photons.caustic_estimate(ctx.diagonal),
+            gather_per_sample: photons.gather_rays,
+            guided: photons.guided_gathering,
+        }
+    }
 }
 
 impl SurfaceLight for MapLight<'_> {

@@ -1,0 +1,236 @@
+//! How many final-gathering rays a camera sample should send when a render
+//! has a time budget: the count that buys the least error per second,
+//! measured on the scene before the rounds begin.
+//!
+//! More gather rays remove the part of a pixel's noise that comes from
+//! gathering and cost time that fewer camera samples then pay for. Which
+//! wins depends on the scene: under a point light nearly all the noise is
+//! gathering's and 16 rays a sample did best; under a small area light its
+//! soft shadows and edges weigh more and 1 to 4 did (BENCHMARKS.md, "Gather
+//! rays chosen per scene"). No fixed count suits both.
+//!
+//! The pilot renders a sparse set of pixels (one at a random place in each
+//! cell of a grid), a few camera samples each with the render's own
+//! sampler, twice (two seeds) at each of a few gather counts. Half the
+//! squared difference of a pixel's two estimates is their variance, and
+//! variance times seconds is what a count costs in error at a fixed budget
+//! (variance falls as one over the time): the cheapest count wins. The
+//! lights seen straight or through mirrors and glass are measured apart, at
+//! nearly every pixel, by camera rays alone: their noise (a light's edges)
+//! sits in a few pixels, which decide much of the error (at 256 x 256 on the
+//! area-lit box, 4 gather rays gave half the error of 16) and which a
+//! sparse pilot meets by chance or not at all.
+//!
+//! Tried first: a fit of `V1 + V2 / M` to independent samples' variances
+//! (`V2 / M` from the spread of each sample's gather rays), which chose 4
+//! rays under the point light where 16 did best: with Sobol points neither
+//! part falls as one over the samples. The pilot costs a few percent of
+//! the budget. Being timed, it makes the count depend on the machine, as a
+//! time budget's sample count already does; renders without a budget keep
+//! the setting.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::MapLight;
+use crate::accel::Ray;
+use crate::bsdf::Bsdf;
+use crate::film::Sample;
+use crate::integrator::pixels::average_over_pixel;
+use crate::integrator::whitted::WhittedTracer;
+use crate::integrator::{Context, SampleRange};
+use crate::query::{Interaction, RayCount};
+use crate::sampling::Rng;
+
+/// The gather-ray counts the pilot tries, fewest first.
+const CANDIDATES: [u32; 3] = [1, 4, 16];
+/// Camera samples of each pilot pixel estimate.
+const PILOT_SAMPLES: u32 = 8;
+/// Pilot pixels per second of budget, and the fewest and most.
+const PILOT_PIXELS_PER_SECOND: f64 = 128.0;
+const PILOT_PIXELS: (u32, u32) = (128, 512);
+/// Pixels whose lights seen the pilot measures, at most (all of a 256 x 256 image).
+const LIGHT_PILOT_PIXELS: u32 = 65_536;
+/// Seed offset of the pilot's random streams (apart from the render's).
+const PILOT_SEED: u64 = 0x5eed_9a7e_0f91_1700;
+
+/// What the pilot measured at one gather count.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Trial {
+    /// Gather rays per camera sample.
+    gather: u32,
+    /// Variance of a pilot pixel's estimate.
+    variance: f64,
+    /// Seconds per camera sample.
+    seconds: f64,
+}
+
+/// The count of the trial that leaves the least error for a budget (the
+/// least variance times seconds); on a tie, the fewer rays.
+fn best_count(trials: &[Trial]) -> u32 {
+    let cost = |t: &Trial| t.variance * t.seconds;
+    trials
+        .iter()
+        .fold(None, |best: Option<&Trial>, t| match best {
+            Some(b) if cost(b) <= cost(t) => Some(b),
+            _ => Some(t),
+        })
+        .map_or(CANDIDATES[0], |t| t.gather)
+}
+
+/// About `wanted` pixels of the region of `ctx`: one at a random place in
+/// each cell of a regular grid, so that thin features (a light's edges,
+/// where the noise is the greatest) are met as often as they cover the
+/// image, not never or in every row as a grid's fixed pixels would.
+fn pilot_pixels(ctx: &Context, wanted: u32, seed: u64) -> Vec<(u32, u32)> {
+    let region = ctx.config.region();
+    let area = region.width() as f64 * region.height() as f64;
+    let step = ((area / wanted.max(1) as f64).sqrt().ceil() as u32).max(1);
+    let mut rng = Rng::new(seed, 0);
+    let mut pixels = Vec::new();
+    for y0 in (region.y0..region.y1).step_by(step as usize) {
+        for x0 in (region.x0..region.x1).step_by(step as usize) {
+            let (w, h) = (step.min(region.x1 - x0), step.min(region.y1 - y0));
+            let (u, v) = (rng.uniform(), rng.uniform());
+            let pick = |n: u32, u: f32| ((u * n as f32) as u32).min(n - 1);
+            pixels.push((x0 + pick(w, u), y0 + pick(h, v)));
+        }
+    }
+    pixels
+}
+
+/// Each pixel's estimate from `samples` camera samples drawn with seed
+/// `seed`, each the light `radiance` finds along a camera ray, and the
+/// seconds they took.
+fn estimates(
+    ctx: &Context,
+    pixels: &[(u32, u32)],
+    (samples, seed): (u32, u64),
+    radiance: impl Fn(&Context, &Ray, &mut Rng, &mut RayCount) -> Sample + Sync,
+) -> (Vec<Sample>, f64) {
+    let config = crate::RenderConfig { seed, ..ctx.config.clone() };
+    let pilot = Context { config: &config, samples: SampleRange { first: 0, count: samples }, ..*ctx };
+    let started = Instant::now();
+    let values = pixels
+        .par_iter()
+        .map(|&(x, y)| {
+            let mut rng = Rng::new(seed, y as u64 * config.width as u64 + x as u64);
+            let mut count = RayCount::default();
+            average_over_pixel(&pilot, (x, y), &mut rng, |ray, rng| radiance(&pilot, &ray, rng, &mut count))
+        })
+        .collect();
+    (values, started.elapsed().as_secs_f64())
+}
+
+/// Light seen straight along `ray`, or through mirrors and glass only:
+/// the part of a photon-mapped sample no gather ray changes, and whose
+/// noise (a light's edges, seen directly or in a mirror) sits in a few
+/// pixels that a sparse pilot would miss.
+fn lights_seen(ctx: &Context, ray: &Ray, depth: u32, count: &mut RayCount) -> Vec3 {
+    let sp = match ctx.query.first(ray, count) {
+        None => return Vec3::ZERO,
+        Some(Interaction::Emitter { radiance, .. }) => return radiance,
+        Some(Interaction::Surface(sp)) => sp,
+    };
+    if depth + 1 >= ctx.config.max_depth {
+        return Vec3::ZERO;
+    }
+    let bsdf = Bsdf::new(ctx.query.material(&sp), &sp, ray.dir.normalize());
+    bsdf.specular_branches()
+        .map(|(weight, dir)| weight * lights_seen(ctx, &sp.spawn(dir), depth + 1, count))
+        .sum()
+}
+
+/// The variance of one estimate, from two independent ones of each pixel:
+/// half their squared difference, summed over the channels (as RMSE sums
+/// squared errors over them) and averaged over the pixels.
+fn variance(a: &[Vec3], b: &[Vec3]) -> f64 {
+    let sum: f64 = a.iter().zip(b).map(|(a, b)| (*a - *b).as_dvec3().length_squared() / 2.0).sum();
+    sum / a.len().max(1) as f64
+}
+
+/// [`variance`] of `part` of two estimates of each pixel.
+fn variance_of(a: &[Sample], b: &[Sample], part: impl Fn(&Sample) -> Vec3) -> f64 {
+    let (a, b): (Vec<Vec3>, Vec<Vec3>) = (a.iter().map(&part).collect(), b.iter().map(&part).collect());
+    variance(&a, &b)
+}
+
+/// Runs the pilot for photon mapping with the maps of `light`, sized for a
+/// budget of `budget` seconds; returns the gather rays per sample to render
+/// with, and a note saying why.
+pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, String) {
+    let wanted = (budget * PILOT_PIXELS_PER_SECOND).clamp(PILOT_PIXELS.0 as f64, PILOT_PIXELS.1 as f64);
+    let started = Instant::now();
+    let seed = ctx.config.seed.wrapping_add(PILOT_SEED);
+    // The lights seen, over (nearly) every pixel: cheap, camera rays and
+    // specular chains only.
+    let everywhere = pilot_pixels(ctx, LIGHT_PILOT_PIXELS, seed);
+    let seen = |ctx: &Context, ray: &Ray, _: &mut Rng, count: &mut RayCount| Sample {
+        emission: lights_seen(ctx, ray, 0, count),
+        ..Sample::default()
+    };
+    let (a, _) = estimates(ctx, &everywhere, (1, seed), seen);
+    let (b, _) = estimates(ctx, &everywhere, (1, seed.wrapping_add(1)), seen);
+    // One sample's variance; that of the other estimates' PILOT_SAMPLES.
+    let lights = variance_of(&a, &b, |s| s.emission) / PILOT_SAMPLES as f64;
+    // All the rest, at a sparse set of pixels, at each count.
+    let pixels = pilot_pixels(ctx, wanted as u32, seed);
+    let samples = pixels.len().max(1) as f64 * PILOT_SAMPLES as f64;
+    let trials: Vec<Trial> = CANDIDATES
+        .iter()
+        .map(|&gather| {
+            let light = MapLight { gather_per_sample: gather, ..*light };
+            let tracer = WhittedTracer { ctx, surface_light: Some(&light) };
+            let traced = |ctx: &Context, ray: &Ray, rng: &mut Rng, count: &mut RayCount| {
+                WhittedTracer { ctx, ..tracer }.radiance(ray, 0, Vec3::ONE, rng, count)
+            };
+            let (a, time_a) = estimates(ctx, &pixels, (PILOT_SAMPLES, seed), traced);
+            let (b, time_b) = estimates(ctx, &pixels, (PILOT_SAMPLES, seed.wrapping_add(1)), traced);
+            let rest = variance_of(&a, &b, |s| s.total() - s.emission);
+            Trial { gather, variance: lights + rest, seconds: (time_a + time_b) / (2.0 * samples) }
+        })
+        .collect();
+    let best = best_count(&trials);
+    let tried: Vec<String> = trials
+        .iter()
+        .map(|t| format!("{} rays {:.3e} x {:.2} us", t.gather, t.variance, t.seconds * 1e6))
+        .collect();
+    let note = format!(
+        "gather rays: {best} per camera sample for the time budget (pilot of {:.2} s at {} pixels, lights seen at \
+         {}; variance x time a sample: {})",
+        started.elapsed().as_secs_f64(),
+        pixels.len(),
+        everywhere.len(),
+        tried.join(", ")
+    );
+    (best, note)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_best_count_leaves_the_least_variance_for_the_time() {
+        let t = |gather, variance, seconds| Trial { gather, variance, seconds };
+        // Point-light-like: sixteen rays cut the variance tenfold for 2.5x the time.
+        assert_eq!(best_count(&[t(1, 0.1, 2.0), t(4, 0.03, 3.0), t(16, 0.01, 5.0)]), 16);
+        // Area-light-like: more rays barely help.
+        assert_eq!(best_count(&[t(1, 0.25, 2.0), t(4, 0.24, 3.0), t(16, 0.235, 7.0)]), 1);
+        // In between.
+        assert_eq!(best_count(&[t(1, 0.2, 2.0), t(4, 0.08, 3.0), t(16, 0.06, 7.0)]), 4);
+        // No variance anywhere (no indirect light): the fewest rays.
+        assert_eq!(best_count(&[t(1, 0.0, 2.0), t(4, 0.0, 3.0), t(16, 0.0, 7.0)]), 1);
+        assert_eq!(best_count(&[]), CANDIDATES[0]);
+    }
+
+    #[test]
+    fn the_variance_of_one_of_two_estimates_is_half_their_squared_difference() {
+        let a = [Vec3::new(1.0, 0.0, 0.0), Vec3::ZERO];
+        let b = [Vec3::new(3.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 2.0)];
+        // (4 / 2 + 8 / 2) / 2 pixels.
+        assert!((variance(&a, &b) - 3.0).abs() < 1e-12);
+    }
+}
