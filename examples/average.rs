@@ -8,13 +8,13 @@ use std::path::Path;
 
 use caustix::Image;
 
+const USAGE: &str = "usage: average OUT.exr IN.exr [IN.exr ...]";
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let [output, inputs @ ..] = args.as_slice() else {
-        return Err("usage: average OUT.exr IN.exr [IN.exr ...]".into());
-    };
+    let [output, inputs @ ..] = args.as_slice() else { return Err(USAGE.into()) };
     if inputs.is_empty() {
-        return Err("usage: average OUT.exr IN.exr [IN.exr ...]".into());
+        return Err(USAGE.into());
     }
     let mut sum = Image::load(Path::new(&inputs[0]))?;
     for input in &inputs[1..] {

@@ -143,18 +143,12 @@ fn lights_seen(ctx: &Context, ray: &Ray, depth: u32, count: &mut RayCount) -> Ve
         .sum()
 }
 
-/// The variance of one estimate, from two independent ones of each pixel:
-/// half their squared difference, summed over the channels (as RMSE sums
-/// squared errors over them) and averaged over the pixels.
-fn variance(a: &[Vec3], b: &[Vec3]) -> f64 {
-    let sum: f64 = a.iter().zip(b).map(|(a, b)| (*a - *b).as_dvec3().length_squared() / 2.0).sum();
-    sum / a.len().max(1) as f64
-}
-
-/// [`variance`] of `part` of two estimates of each pixel.
+/// The variance of `part` of one estimate, from two independent ones of
+/// each pixel: half their squared difference, summed over the channels (as
+/// RMSE sums squared errors over them) and averaged over the pixels.
 fn variance_of(a: &[Sample], b: &[Sample], part: impl Fn(&Sample) -> Vec3) -> f64 {
-    let (a, b): (Vec<Vec3>, Vec<Vec3>) = (a.iter().map(&part).collect(), b.iter().map(&part).collect());
-    variance(&a, &b)
+    let sum: f64 = a.iter().zip(b).map(|(a, b)| (part(a) - part(b)).as_dvec3().length_squared() / 2.0).sum();
+    sum / a.len().max(1) as f64
 }
 
 /// Runs the pilot for photon mapping with the maps of `light`, sized for a
@@ -228,9 +222,12 @@ mod tests {
 
     #[test]
     fn the_variance_of_one_of_two_estimates_is_half_their_squared_difference() {
-        let a = [Vec3::new(1.0, 0.0, 0.0), Vec3::ZERO];
-        let b = [Vec3::new(3.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 2.0)];
-        // (4 / 2 + 8 / 2) / 2 pixels.
-        assert!((variance(&a, &b) - 3.0).abs() < 1e-12);
+        let light = |emission: Vec3, direct: Vec3| Sample { emission, direct, ..Sample::default() };
+        let a = [light(Vec3::new(1.0, 0.0, 0.0), Vec3::ZERO), light(Vec3::ZERO, Vec3::ONE)];
+        let b = [light(Vec3::new(3.0, 0.0, 0.0), Vec3::ONE), light(Vec3::new(0.0, 2.0, 2.0), Vec3::ONE)];
+        // Emission: (4 / 2 + 8 / 2) / 2 pixels.
+        assert!((variance_of(&a, &b, |s| s.emission) - 3.0).abs() < 1e-12);
+        // Direct: (3 / 2 + 0) / 2 pixels.
+        assert!((variance_of(&a, &b, |s| s.direct) - 0.75).abs() < 1e-12);
     }
 }
