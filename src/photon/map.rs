@@ -9,6 +9,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
 use super::guide::GatherGuide;
 use super::nearest::{Found, PointTree};
+use super::runs::{unkey, Runs};
 pub use crate::config::Estimate;
 use crate::material::Material;
 use crate::sampling::Frame;
@@ -70,11 +71,13 @@ const PRECOMPUTE_CHUNK: usize = 256;
 /// search usually finds its `k` photons in one pass.
 const START_MARGIN: f32 = 1.3;
 
-/// A k-nearest search's reusable state: the photons found, and the squared
+/// A k-nearest search's reusable state: the photons found (squared
+/// distance, index), the range searches' keys for them, and the squared
 /// radius the next search starts from (0: none yet).
 #[derive(Default)]
 struct Search {
     found: Vec<(f32, usize)>,
+    keys: Vec<u64>,
     radius2: f32,
 }
 
@@ -104,10 +107,21 @@ pub(crate) struct IrradianceRecord {
 impl Precomputed {
     /// The records and their kd-tree (at least one record).
     pub(crate) fn new(records: Vec<IrradianceRecord>) -> Precomputed {
-        let positions: Vec<Vec3> = records.iter().map(|r| r.position).collect();
-        let values: Vec<(Vec3, Vec3, f32)> =
-            records.iter().map(|r| (r.normal, r.irradiance, r.radius2)).collect();
-        let guides = records.into_iter().map(|r| r.guide).collect();
+        Precomputed::from_runs(vec![records])
+    }
+
+    /// [`Precomputed::new`] from records made in runs, in the order given
+    /// (flattened here, once: the records are large, a gather guide each).
+    fn from_runs(runs: Vec<Vec<IrradianceRecord>>) -> Precomputed {
+        let count = runs.iter().map(Vec::len).sum();
+        let mut positions = Vec::with_capacity(count);
+        let mut values = Vec::with_capacity(count);
+        let mut guides = Vec::with_capacity(count);
+        for record in runs.into_iter().flatten() {
+            positions.push(record.position);
+            values.push((record.normal, record.irradiance, record.radius2));
+            guides.push(record.guide);
+        }
         Precomputed { tree: PointTree::new(&positions, &values), guides }
     }
 
@@ -142,12 +156,12 @@ impl PhotonMap {
     /// Panics beyond 2^32 photons (the settings cap photon counts far below).
     pub fn new(photons: Vec<Photon>) -> PhotonMap {
         use rayon::prelude::*;
-        let order = morton_order(&photons.iter().map(|p| p.position).collect::<Vec<_>>());
+        let order = morton_order(&photons.par_iter().map(|p| p.position).collect::<Vec<_>>());
         let sorted: Vec<Photon> = order.par_iter().map(|&i| photons[i]).collect();
         // Only one copy of the photons while the tree is built.
         drop((photons, order));
         let photons = sorted;
-        let points: Vec<[f32; 3]> = photons.iter().map(|p| p.position.to_array()).collect();
+        let points: Vec<[f32; 3]> = photons.par_iter().map(|p| p.position.to_array()).collect();
         let tree = (!points.is_empty())
             .then(|| ImmutableKdTree::new_from_slice(&points).expect("fewer than 2^32 photons"));
         PhotonMap { photons, tree, precomputed: None }
@@ -158,8 +172,9 @@ impl PhotonMap {
     ///
     /// The photons lie along a Morton curve (see [`PhotonMap::new`]): every
     /// `stride`-th of them spreads the records evenly over the lit surfaces,
-    /// and consecutive estimates search the same part of the tree, each
-    /// starting from the radius the one before needed (see `nearest_from`).
+    /// and consecutive estimates search the same runs of photons (see
+    /// `runs.rs`), each starting from the radius the one before needed (see
+    /// `nearest_from`).
     /// The records are made in fixed chunks of the curve, each in order from
     /// its start, so they do not depend on how many threads share the chunks.
     pub fn precompute_irradiance(&mut self, stride: usize, estimate: &Estimate) {
@@ -168,41 +183,42 @@ impl PhotonMap {
         if chosen.is_empty() {
             return;
         }
-        let records: Vec<IrradianceRecord> = chosen
+        let runs = Runs::new(&self.photons.par_iter().map(|p| p.position).collect::<Vec<_>>());
+        let records: Vec<Vec<IrradianceRecord>> = chosen
             .par_chunks(PRECOMPUTE_CHUNK)
-            .flat_map_iter(|chunk| {
+            .map(|chunk| {
                 let mut search = Search::default();
                 chunk
                     .iter()
                     .map(|photon| {
                         let (p, n) = (photon.position, photon.normal);
-                        let radius2 = self.disc_from(p, estimate, &mut search);
-                        self.record_in(p, n, radius2, estimate, &search.found)
+                        let radius2 = self.disc_from(&runs, p, estimate, &mut search);
+                        self.record_in(p, n, radius2, &search.found)
                     })
                     .collect::<Vec<_>>()
             })
             .collect();
-        self.precomputed = Some(Precomputed::new(records));
+        self.precomputed = Some(Precomputed::from_runs(records));
     }
 
-    /// The irradiance record at `p` (normal `n`), with its gather guide, from one search.
-    fn record_in(
-        &self,
-        p: Vec3,
-        n: Vec3,
-        radius2: f32,
-        estimate: &Estimate,
-        found: &[(f32, usize)],
-    ) -> IrradianceRecord {
-        let irradiance = self.irradiance_in(found, radius2, p, n, estimate);
+    /// The irradiance record at `p` (normal `n`), with its gather guide,
+    /// from the photons of a disc of squared radius `radius2`: the
+    /// irradiance `sum power / (pi r^2)` over those lighting the surface
+    /// (see [`PhotonMap::radiance`]), the guide from those among them that
+    /// bounced before, both in one pass over the photons.
+    fn record_in(&self, p: Vec3, n: Vec3, radius2: f32, found: &[(f32, usize)]) -> IrradianceRecord {
         let (r, frame) = (radius2.sqrt(), Frame::new(n));
+        let mut power = Vec3::ZERO;
         let guide = GatherGuide::new(
             found
                 .iter()
                 .map(|&(_, i)| &self.photons[i])
-                .filter(|photon| photon.indirect && photon.lights_surface(p, n, r))
+                .filter(|photon| photon.lights_surface(p, n, r))
+                .inspect(|photon| power += photon.power)
+                .filter(|photon| photon.indirect)
                 .map(|photon| (frame.to_local(photon.incoming), photon.power.element_sum())),
         );
+        let irradiance = if radius2 > 0.0 { power / (std::f32::consts::PI * radius2) } else { Vec3::ZERO };
         IrradianceRecord { position: p, normal: n, irradiance, radius2, guide }
     }
 
@@ -289,10 +305,9 @@ impl PhotonMap {
     /// photon in it once, where the k-nearest search keeps a heap: at `k =
     /// 100` the precomputation took 1.6x as long with the k-nearest search
     /// (BENCHMARKS.md).
-    fn nearest_from(&self, p: Vec3, k: usize, max_radius: f32, search: &mut Search) {
+    fn nearest_from(&self, runs: &Runs, p: Vec3, k: usize, max_radius: f32, search: &mut Search) {
         search.found.clear();
-        let Some(tree) = &self.tree else { return };
-        if k == 0 {
+        if self.tree.is_none() || k == 0 {
             return;
         }
         let max_r2 = max_radius * max_radius;
@@ -308,51 +323,20 @@ impl PhotonMap {
                 _ => max_r2,
             }
         };
-        self.nearest_in_tree(tree, p, k, start, max_r2, search);
-        // The k nearest, the k-th last; ties broken by index. (Not sorted:
-        // sorting them cost a fifth of the precomputation.)
-        if search.found.len() >= k {
-            let by_distance = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
-            search.found.select_nth_unstable_by(k - 1, by_distance);
-            search.found.truncate(k);
+        nearest_in_runs(runs, p, k, start, max_r2, search);
+        // The k nearest, the k-th last; ties broken by index, as the keys
+        // order. (Not sorted: sorting them cost a fifth of the precomputation.)
+        if search.keys.len() >= k {
+            search.keys.select_nth_unstable(k - 1);
+            search.keys.truncate(k);
         }
+        search.found.extend(search.keys.iter().map(|&key| unkey(key)));
         // The next search, nearby, starts a little beyond this one's k-th
         // photon, so that it usually needs a single pass.
         if let Some(&(farthest, _)) = search.found.last() {
             if search.found.len() == k && farthest > 0.0 {
                 search.radius2 = farthest * START_MARGIN;
             }
-        }
-    }
-
-    /// The photons within a sphere around `p` that holds its `k` nearest
-    /// (or reaches `max_r2`), into `search.found`, by range searches whose
-    /// squared radius starts at `r2` and grows.
-    fn nearest_in_tree(
-        &self,
-        tree: &ImmutableKdTree<f32, 3>,
-        p: Vec3,
-        k: usize,
-        mut r2: f32,
-        max_r2: f32,
-        search: &mut Search,
-    ) {
-        loop {
-            search.found.clear();
-            tree.query(&p.to_array())
-                .within::<SquaredEuclidean<f32>>(r2)
-                .unsorted()
-                .visit(|hit| search.found.push((hit.distance, hit.item as usize)));
-            let found = search.found.len();
-            // (Written so that a NaN radius ends the loop too.)
-            let reached_cap = r2.partial_cmp(&max_r2) != Some(std::cmp::Ordering::Less);
-            if found >= k || reached_cap {
-                break;
-            }
-            // Too few: on a surface the count grows with the area, so aim a
-            // little past `k` photons, at least doubling the area.
-            let wanted = (k as f32 * 1.25) / found.max(1) as f32;
-            r2 = (r2 * wanted.clamp(2.0, 16.0)).min(max_r2);
         }
     }
 
@@ -426,8 +410,8 @@ impl PhotonMap {
 
     /// [`PhotonMap::disc`] by [`PhotonMap::nearest_from`]: the photons in
     /// `search.found`, the disc's squared radius returned.
-    fn disc_from(&self, p: Vec3, estimate: &Estimate, search: &mut Search) -> f32 {
-        self.nearest_from(p, estimate.k, estimate.max_radius, search);
+    fn disc_from(&self, runs: &Runs, p: Vec3, estimate: &Estimate, search: &mut Search) -> f32 {
+        self.nearest_from(runs, p, estimate.k, estimate.max_radius, search);
         close_disc(&mut search.found, estimate)
     }
 
@@ -435,15 +419,27 @@ impl PhotonMap {
     /// over the nearest photons from above (for tests and diagnostics).
     pub fn irradiance(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> Vec3 {
         let (found, r2) = self.disc(p, estimate);
-        self.irradiance_in(&found, r2, p, n, estimate)
+        self.record_in(p, n, r2, &found).irradiance
     }
+}
 
-    /// [`PhotonMap::irradiance`] from the photons of a [`PhotonMap::disc`].
-    fn irradiance_in(&self, found: &[(f32, usize)], r2: f32, p: Vec3, n: Vec3, estimate: &Estimate) -> Vec3 {
-        let lambertian = Material { diffuse: Vec3::ONE, ..Material::default() };
-        // A white Lambertian BRDF is 1 / pi, so radiance * pi is irradiance.
-        let no_filter = Estimate { cone_filter: None, ..*estimate };
-        self.radiance_in(found, r2, p, n, n, &lambertian, &no_filter) * std::f32::consts::PI
+/// The photons within a sphere around `p` that holds its `k` nearest
+/// (or reaches `max_r2`), into `search.keys`, by range searches whose
+/// squared radius starts at `r2` and grows.
+fn nearest_in_runs(runs: &Runs, p: Vec3, k: usize, mut r2: f32, max_r2: f32, search: &mut Search) {
+    loop {
+        search.keys.clear();
+        runs.within(p, r2, &mut search.keys);
+        let found = search.keys.len();
+        // (Written so that a NaN radius ends the loop too.)
+        let reached_cap = r2.partial_cmp(&max_r2) != Some(std::cmp::Ordering::Less);
+        if found >= k || reached_cap {
+            break;
+        }
+        // Too few: on a surface the count grows with the area, so aim a
+        // little past `k` photons, at least doubling the area.
+        let wanted = (k as f32 * 1.25) / found.max(1) as f32;
+        r2 = (r2 * wanted.clamp(2.0, 16.0)).min(max_r2);
     }
 }
 
@@ -561,6 +557,7 @@ mod tests {
             })
             .collect();
         let map = PhotonMap::new(photons);
+        let runs = Runs::new(&map.photons().iter().map(|p| p.position).collect::<Vec<_>>());
         for _ in 0..40 {
             let q = Vec3::new(rng.uniform(), 0.0, rng.uniform());
             for (k, max_radius) in [(1, 10.0), (20, 10.0), (200, 10.0), (200, 0.05), (4001, 10.0)] {
@@ -574,8 +571,8 @@ mod tests {
                 brute.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
                 brute.truncate(k);
                 for start in [0.0, 1e-8, 1e-3, 0.5, 100.0] {
-                    let mut search = Search { found: Vec::new(), radius2: start };
-                    map.nearest_from(q, k, max_radius, &mut search);
+                    let mut search = Search { radius2: start, ..Search::default() };
+                    map.nearest_from(&runs, q, k, max_radius, &mut search);
                     let mut found = search.found.clone();
                     if found.len() == k {
                         // The k-th last, as `close_disc` needs.

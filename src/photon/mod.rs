@@ -18,6 +18,7 @@ pub mod file;
 pub mod guide;
 pub mod map;
 pub mod nearest;
+mod runs;
 
 use std::time::Instant;
 

@@ -1,0 +1,171 @@
+//! Range searches over photons already in Morton order, for the irradiance
+//! precomputation: "every photon within this sphere", about 200 of them,
+//! asked once per record (a quarter of a million times at 1M photons).
+//!
+//! The photons lie along a Morton curve (see `PhotonMap::new`), so every run
+//! of [`RUN`] consecutive photons is a compact patch of surface. The runs are
+//! the leaves of an implicit binary tree of boxes, built bottom up in one
+//! pass: nothing is sorted or split, so building costs a copy of the
+//! positions. A search walks the boxes the sphere touches and tests each
+//! touched run's photons together: their coordinates are stored axis by axis,
+//! and the squared distances of a whole run are one loop the compiler turns
+//! into SIMD. kiddo's range search, which this replaces there, tests one
+//! photon at a time (its SIMD distances need AVX2 enabled at compile time)
+//! and was most of the precomputation's time (BENCHMARKS.md, issue 17).
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::bounds::Bounds;
+
+/// Photons in a run: a leaf of the tree.
+const RUN: usize = 32;
+
+/// A run's coordinates, axis by axis; past the last photon, NaN (which no
+/// comparison finds within any radius).
+#[derive(Clone, Copy)]
+struct Run {
+    x: [f32; RUN],
+    y: [f32; RUN],
+    z: [f32; RUN],
+}
+
+/// The tree over the runs: `levels[0]` holds each run's box, each further
+/// level the boxes of pairs below it (node `i` covers `2i` and `2i + 1`), up
+/// to one box over all.
+pub(super) struct Runs {
+    runs: Vec<Run>,
+    levels: Vec<Vec<Bounds>>,
+}
+
+impl Runs {
+    /// The tree over `positions` in the order given (in parallel; the
+    /// result does not depend on the threads).
+    pub(super) fn new(positions: &[Vec3]) -> Runs {
+        let runs: Vec<Run> = positions
+            .par_chunks(RUN)
+            .map(|chunk| {
+                let mut run = Run { x: [f32::NAN; RUN], y: [f32::NAN; RUN], z: [f32::NAN; RUN] };
+                for (i, p) in chunk.iter().enumerate() {
+                    (run.x[i], run.y[i], run.z[i]) = (p.x, p.y, p.z);
+                }
+                run
+            })
+            .collect();
+        let mut levels = vec![positions.par_chunks(RUN).map(Bounds::of).collect::<Vec<_>>()];
+        while let Some(below) = levels.last().filter(|level| level.len() > 1) {
+            let above =
+                below.chunks(2).map(|pair| pair.iter().fold(Bounds::EMPTY, |b, &c| b.union(c))).collect();
+            levels.push(above);
+        }
+        Runs { runs, levels }
+    }
+
+    /// Every position within squared distance `r2` of `q` (at most, as
+    /// `(p - q).length_squared()` measures it), pushed onto `found` in no
+    /// particular order as a [`key`]: ordering the keys orders the positions
+    /// by distance, then by index (and compares integers, not floats).
+    pub(super) fn within(&self, q: Vec3, r2: f32, found: &mut Vec<u64>) {
+        if !self.runs.is_empty() {
+            self.visit(self.levels.len() - 1, 0, q, r2, found);
+        }
+    }
+
+    fn visit(&self, level: usize, node: usize, q: Vec3, r2: f32, found: &mut Vec<u64>) {
+        let b = &self.levels[level][node];
+        // The gap from `q` to the box (a NaN radius reaches nothing).
+        let gap = (b.min - q).max(q - b.max).max(Vec3::ZERO);
+        let reaches = gap.length_squared() <= r2;
+        if !reaches {
+            return;
+        }
+        if level == 0 {
+            self.scan(node, q, r2, found);
+            return;
+        }
+        for child in [2 * node, 2 * node + 1] {
+            if child < self.levels[level - 1].len() {
+                self.visit(level - 1, child, q, r2, found);
+            }
+        }
+    }
+
+    /// The photons of run `index` within `r2` of `q`.
+    fn scan(&self, index: usize, q: Vec3, r2: f32, found: &mut Vec<u64>) {
+        let run = &self.runs[index];
+        let mut d2 = [0.0f32; RUN];
+        for (i, d) in d2.iter_mut().enumerate() {
+            let (dx, dy, dz) = (run.x[i] - q.x, run.y[i] - q.y, run.z[i] - q.z);
+            // The order of glam's `length_squared`, so that distances agree bit for bit.
+            *d = dx * dx + dy * dy + dz * dz;
+        }
+        // Written without a branch per photon (whether one lies within is
+        // as good as a coin toss near the sphere's edge): every photon is
+        // written past the end, and the end moves past those within.
+        let base = index * RUN;
+        let mut end = found.len();
+        found.resize(end + RUN, 0);
+        for (i, &d) in d2.iter().enumerate() {
+            found[end] = key(d, base + i);
+            end += usize::from(d <= r2);
+        }
+        found.truncate(end);
+    }
+}
+
+/// A squared distance (not negative, not NaN) and an index below 2^32 in
+/// one integer that orders like the pair: for such floats the order of their
+/// bits is the order of their values.
+pub(super) fn key(distance2: f32, index: usize) -> u64 {
+    (u64::from(distance2.to_bits()) << 32) | index as u64
+}
+
+/// The squared distance and index of a [`key`].
+pub(super) fn unkey(key: u64) -> (f32, usize) {
+    (f32::from_bits((key >> 32) as u32), (key & 0xffff_ffff) as usize)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    #[test]
+    fn range_searches_find_exactly_the_points_within() {
+        // Counts that leave the last run partly filled, and one and none;
+        // points on a plane (many equal distances) and in a volume; radii from
+        // none found to all.
+        let mut rng = Rng::new(11, 12);
+        for n in [0, 1, 31, 32, 33, 1000, 4321] {
+            let points: Vec<Vec3> = (0..n)
+                .map(|i| {
+                    let y = if i % 2 == 0 { 0.0 } else { rng.uniform() };
+                    Vec3::new(rng.uniform(), y, rng.uniform())
+                })
+                .collect();
+            let runs = Runs::new(&points);
+            for _ in 0..30 {
+                let q = Vec3::new(rng.uniform(), rng.uniform() * 0.2, rng.uniform());
+                for r2 in [0.0, 1e-4, 0.01, 0.1, 5.0, f32::INFINITY] {
+                    let mut keys = Vec::new();
+                    runs.within(q, r2, &mut keys);
+                    let mut found: Vec<(f32, usize)> = keys.into_iter().map(unkey).collect();
+                    found.sort_by_key(|&(_, i)| i);
+                    let brute: Vec<(f32, usize)> = points
+                        .iter()
+                        .enumerate()
+                        .map(|(i, p)| ((*p - q).length_squared(), i))
+                        .filter(|&(d2, _)| d2 <= r2)
+                        .collect();
+                    assert_eq!(found, brute, "{n} points, r2 {r2}");
+                    // Keys order as the pairs do.
+                    let mut by_key: Vec<u64> = found.iter().map(|&(d2, i)| key(d2, i)).collect();
+                    by_key.sort_unstable();
+                    let mut by_pair = found.clone();
+                    by_pair.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                    assert_eq!(by_key.into_iter().map(unkey).collect::<Vec<_>>(), by_pair);
+                }
+            }
+        }
+    }
+}
