@@ -16,6 +16,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::map::Photon;
 use crate::bounds::Bounds;
 
 /// Photons in a run: a leaf of the tree.
@@ -39,20 +40,23 @@ pub(super) struct Runs {
 }
 
 impl Runs {
-    /// The tree over `positions` in the order given (in parallel; the
-    /// result does not depend on the threads).
-    pub(super) fn new(positions: &[Vec3]) -> Runs {
-        let runs: Vec<Run> = positions
+    /// The tree over the positions of `photons` in the order given (in
+    /// parallel; the result does not depend on the threads).
+    pub(super) fn new(photons: &[Photon]) -> Runs {
+        let runs: Vec<Run> = photons
             .par_chunks(RUN)
             .map(|chunk| {
                 let mut run = Run { x: [f32::NAN; RUN], y: [f32::NAN; RUN], z: [f32::NAN; RUN] };
-                for (i, p) in chunk.iter().enumerate() {
+                for (i, photon) in chunk.iter().enumerate() {
+                    let p = photon.position;
                     (run.x[i], run.y[i], run.z[i]) = (p.x, p.y, p.z);
                 }
                 run
             })
             .collect();
-        let mut levels = vec![positions.par_chunks(RUN).map(Bounds::of).collect::<Vec<_>>()];
+        let boxes =
+            photons.par_chunks(RUN).map(|chunk| chunk.iter().fold(Bounds::EMPTY, |b, p| b.grow(p.position)));
+        let mut levels = vec![boxes.collect::<Vec<_>>()];
         while let Some(below) = levels.last().filter(|level| level.len() > 1) {
             let above =
                 below.chunks(2).map(|pair| pair.iter().fold(Bounds::EMPTY, |b, &c| b.union(c))).collect();
@@ -143,7 +147,17 @@ mod tests {
                     Vec3::new(rng.uniform(), y, rng.uniform())
                 })
                 .collect();
-            let runs = Runs::new(&points);
+            let photons: Vec<Photon> = points
+                .iter()
+                .map(|&position| Photon {
+                    position,
+                    incoming: Vec3::Y,
+                    power: Vec3::ONE,
+                    normal: Vec3::Y,
+                    indirect: false,
+                })
+                .collect();
+            let runs = Runs::new(&photons);
             for _ in 0..30 {
                 let q = Vec3::new(rng.uniform(), rng.uniform() * 0.2, rng.uniform());
                 for r2 in [0.0, 1e-4, 0.01, 0.1, 5.0, f32::INFINITY] {
