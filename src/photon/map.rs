@@ -9,10 +9,9 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
 use super::guide::GatherGuide;
 use super::nearest::{Found, PointTree};
-use super::runs::{unkey, Runs};
+use super::precompute::{precompute, record_in};
 pub use crate::config::Estimate;
 use crate::material::Material;
-use crate::sampling::Frame;
 
 /// One stored photon: where it landed, where it came from, what it carries.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -62,25 +61,6 @@ pub struct PhotonMap {
     precomputed: Option<Precomputed>,
 }
 
-/// Precomputed irradiance records made by one task in a row (a stretch of
-/// the Morton curve, so that each search starts from its neighbour's radius).
-const PRECOMPUTE_CHUNK: usize = 256;
-
-/// How far beyond the last search's k-th photon (in squared radius) the next
-/// search starts: 1.3 is 14% in radius, enough that the neighbour's
-/// search usually finds its `k` photons in one pass.
-const START_MARGIN: f32 = 1.3;
-
-/// A k-nearest search's reusable state: the photons found (squared
-/// distance, index), the range searches' keys for them, and the squared
-/// radius the next search starts from (0: none yet).
-#[derive(Default)]
-struct Search {
-    found: Vec<(f32, usize)>,
-    keys: Vec<u64>,
-    radius2: f32,
-}
-
 /// Irradiance estimated ahead of time at a subset of photon positions
 /// (Christensen 1999), so final gathering needs only a short nearest lookup.
 pub(crate) struct Precomputed {
@@ -112,7 +92,7 @@ impl Precomputed {
 
     /// [`Precomputed::new`] from records made in runs, in the order given
     /// (flattened here, once: the records are large, a gather guide each).
-    fn from_runs(runs: Vec<Vec<IrradianceRecord>>) -> Precomputed {
+    pub(super) fn from_runs(runs: Vec<Vec<IrradianceRecord>>) -> Precomputed {
         let count = runs.iter().map(Vec::len).sum();
         let mut positions = Vec::with_capacity(count);
         let mut values = Vec::with_capacity(count);
@@ -155,71 +135,27 @@ impl PhotonMap {
     ///
     /// Panics beyond 2^32 photons (the settings cap photon counts far below).
     pub fn new(photons: Vec<Photon>) -> PhotonMap {
-        use rayon::prelude::*;
-        let order = morton_order(&photons);
-        let sorted: Vec<Photon> = order.par_iter().map(|&key| photons[index_of(key)]).collect();
-        // Only one copy of the photons while the tree is built.
-        drop((photons, order));
-        let photons = sorted;
-        let points: Vec<[f32; 3]> = photons.par_iter().map(|p| p.position.to_array()).collect();
-        let tree = (!points.is_empty())
-            .then(|| ImmutableKdTree::new_from_slice(&points).expect("fewer than 2^32 photons"));
-        PhotonMap { photons, tree, precomputed: None }
+        let photons = in_morton_order(photons);
+        PhotonMap { tree: kd_tree(&photons), photons, precomputed: None }
+    }
+
+    /// [`PhotonMap::new`], then [`PhotonMap::precompute_irradiance`] (the
+    /// same map), with the kd-tree built while the irradiance is
+    /// precomputed: the precomputation needs only the photons in their
+    /// order, and kiddo's build keeps both cores busy only part of the time.
+    pub fn with_irradiance(photons: Vec<Photon>, stride: usize, estimate: &Estimate) -> PhotonMap {
+        let photons = in_morton_order(photons);
+        let (tree, precomputed) =
+            rayon::join(|| kd_tree(&photons), || precompute(&photons, stride, estimate));
+        PhotonMap { photons, tree, precomputed }
     }
 
     /// Estimates irradiance at every `stride`-th photon (in parallel) and
-    /// keeps it for [`PhotonMap::precomputed_radiance`].
-    ///
-    /// The photons lie along a Morton curve (see [`PhotonMap::new`]): every
-    /// `stride`-th of them spreads the records evenly over the lit surfaces,
-    /// and consecutive estimates search the same runs of photons (see
-    /// `runs.rs`), each starting from the radius the one before needed (see
-    /// `nearest_from`).
-    /// The records are made in fixed chunks of the curve, each in order from
-    /// its start, so they do not depend on how many threads share the chunks.
+    /// keeps it for [`PhotonMap::precomputed_radiance`] (see `precompute.rs`).
     pub fn precompute_irradiance(&mut self, stride: usize, estimate: &Estimate) {
-        use rayon::prelude::*;
-        let chosen: Vec<&Photon> = self.photons.iter().step_by(stride.max(1)).collect();
-        if chosen.is_empty() {
-            return;
+        if let Some(precomputed) = precompute(&self.photons, stride, estimate) {
+            self.precomputed = Some(precomputed);
         }
-        let runs = Runs::new(&self.photons);
-        let records: Vec<Vec<IrradianceRecord>> = chosen
-            .par_chunks(PRECOMPUTE_CHUNK)
-            .map(|chunk| {
-                let mut search = Search::default();
-                chunk
-                    .iter()
-                    .map(|photon| {
-                        let (p, n) = (photon.position, photon.normal);
-                        let radius2 = self.disc_from(&runs, p, estimate, &mut search);
-                        self.record_in(p, n, radius2, &search.found)
-                    })
-                    .collect::<Vec<_>>()
-            })
-            .collect();
-        self.precomputed = Some(Precomputed::from_runs(records));
-    }
-
-    /// The irradiance record at `p` (normal `n`), with its gather guide,
-    /// from the photons of a disc of squared radius `radius2`: the
-    /// irradiance `sum power / (pi r^2)` over those lighting the surface
-    /// (see [`PhotonMap::radiance`]), the guide from those among them that
-    /// bounced before, both in one pass over the photons.
-    fn record_in(&self, p: Vec3, n: Vec3, radius2: f32, found: &[(f32, usize)]) -> IrradianceRecord {
-        let (r, frame) = (radius2.sqrt(), Frame::new(n));
-        let mut power = Vec3::ZERO;
-        let guide = GatherGuide::new(
-            found
-                .iter()
-                .map(|&(_, i)| &self.photons[i])
-                .filter(|photon| photon.lights_surface(p, n, r))
-                .inspect(|photon| power += photon.power)
-                .filter(|photon| photon.indirect)
-                .map(|photon| (frame.to_local(photon.incoming), photon.power.element_sum())),
-        );
-        let irradiance = if radius2 > 0.0 { power / (std::f32::consts::PI * radius2) } else { Vec3::ZERO };
-        IrradianceRecord { position: p, normal: n, irradiance, radius2, guide }
     }
 
     /// The precomputed irradiance records, if any, in the order they were
@@ -292,54 +228,6 @@ impl PhotonMap {
             .collect()
     }
 
-    /// The photons [`PhotonMap::nearest`] finds, into `search.found`, the
-    /// `k`-th (when there are `k`) last and the others in no particular
-    /// order, mostly by range searches instead of k-nearest ones: a sphere
-    /// around `p` whose squared radius starts at `search.radius2` (set by
-    /// the last search nearby) and grows until it holds `k` photons or
-    /// reaches `max_radius`; then the `k` nearest are selected from it. The
-    /// photons found are the `k` nearest, ties broken by index, however the
-    /// sphere started; their order depends on the start (so sums over them
-    /// round differently), which depends only on the searches before in the
-    /// same fixed sequence, never on threads. A range search visits each
-    /// photon in it once, where the k-nearest search keeps a heap: at `k =
-    /// 100` the precomputation took 1.6x as long with the k-nearest search
-    /// (BENCHMARKS.md).
-    fn nearest_from(&self, runs: &Runs, p: Vec3, k: usize, max_radius: f32, search: &mut Search) {
-        search.found.clear();
-        if self.tree.is_none() || k == 0 {
-            return;
-        }
-        let max_r2 = max_radius * max_radius;
-        let start = if search.radius2 > 0.0 {
-            search.radius2.min(max_r2)
-        } else {
-            // No radius to start from: the k-th nearest photon's distance
-            // from a k-nearest search (whose choice among photons tied with
-            // the k-th the range search below replaces).
-            let nearest = self.nearest(p, k, max_radius);
-            match nearest.last() {
-                Some(&(farthest, _)) if nearest.len() == k && farthest > 0.0 => farthest,
-                _ => max_r2,
-            }
-        };
-        nearest_in_runs(runs, p, k, start, max_r2, search);
-        // The k nearest, the k-th last; ties broken by index, as the keys
-        // order. (Not sorted: sorting them cost a fifth of the precomputation.)
-        if search.keys.len() >= k {
-            search.keys.select_nth_unstable(k - 1);
-            search.keys.truncate(k);
-        }
-        search.found.extend(search.keys.iter().map(|&key| unkey(key)));
-        // The next search, nearby, starts a little beyond this one's k-th
-        // photon, so that it usually needs a single pass.
-        if let Some(&(farthest, _)) = search.found.last() {
-            if search.found.len() == k && farthest > 0.0 {
-                search.radius2 = farthest * START_MARGIN;
-            }
-        }
-    }
-
     /// Reflected radiance at `p` towards `wo`: the sum of `f_r * power` over
     /// the `k - 1` nearest photons divided by the disc area `pi r^2`, with `r`
     /// the distance to the `k`-th (unbiased for a uniform density, where
@@ -408,45 +296,18 @@ impl PhotonMap {
         (found, radius2)
     }
 
-    /// [`PhotonMap::disc`] by [`PhotonMap::nearest_from`]: the photons in
-    /// `search.found`, the disc's squared radius returned.
-    fn disc_from(&self, runs: &Runs, p: Vec3, estimate: &Estimate, search: &mut Search) -> f32 {
-        self.nearest_from(runs, p, estimate.k, estimate.max_radius, search);
-        close_disc(&mut search.found, estimate)
-    }
-
     /// Irradiance at `p` on a surface with normal `n`: `sum power / (pi r^2)`
     /// over the nearest photons from above (for tests and diagnostics).
     pub fn irradiance(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> Vec3 {
         let (found, r2) = self.disc(p, estimate);
-        self.record_in(p, n, r2, &found).irradiance
-    }
-}
-
-/// The photons within a sphere around `p` that holds its `k` nearest
-/// (or reaches `max_r2`), into `search.keys`, by range searches whose
-/// squared radius starts at `r2` and grows.
-fn nearest_in_runs(runs: &Runs, p: Vec3, k: usize, mut r2: f32, max_r2: f32, search: &mut Search) {
-    loop {
-        search.keys.clear();
-        runs.within(p, r2, &mut search.keys);
-        let found = search.keys.len();
-        // (Written so that a NaN radius ends the loop too.)
-        let reached_cap = r2.partial_cmp(&max_r2) != Some(std::cmp::Ordering::Less);
-        if found >= k || reached_cap {
-            break;
-        }
-        // Too few: on a surface the count grows with the area, so aim a
-        // little past `k` photons, at least doubling the area.
-        let wanted = (k as f32 * 1.25) / found.max(1) as f32;
-        r2 = (r2 * wanted.clamp(2.0, 16.0)).min(max_r2);
+        record_in(&self.photons, p, n, r2, &found).irradiance
     }
 }
 
 /// The squared radius of the disc of an estimate whose search found `found`
 /// (the `k`-th, if found, last), which keeps the photons inside it: the search's whole
 /// disc when it found fewer than `k`, else the `k`-th photon's distance.
-fn close_disc(found: &mut Vec<(f32, usize)>, estimate: &Estimate) -> f32 {
+pub(super) fn close_disc(found: &mut Vec<(f32, usize)>, estimate: &Estimate) -> f32 {
     let whole_disc = estimate.max_radius * estimate.max_radius;
     let Some(&(farthest, _)) = found.last() else { return whole_disc };
     if found.len() < estimate.k {
@@ -461,6 +322,21 @@ fn close_disc(found: &mut Vec<(f32, usize)>, estimate: &Estimate) -> f32 {
         return 0.0;
     }
     farthest
+}
+
+/// The photons sorted along a Morton curve (see [`morton_order`]), with
+/// only one copy of them kept.
+fn in_morton_order(photons: Vec<Photon>) -> Vec<Photon> {
+    use rayon::prelude::*;
+    let order = morton_order(&photons);
+    order.par_iter().map(|&key| photons[index_of(key)]).collect()
+}
+
+/// The kd-tree over the photons' positions (`None` when there are none).
+fn kd_tree(photons: &[Photon]) -> Option<ImmutableKdTree<f32, 3>> {
+    use rayon::prelude::*;
+    let points: Vec<[f32; 3]> = photons.par_iter().map(|p| p.position.to_array()).collect();
+    (!points.is_empty()).then(|| ImmutableKdTree::new_from_slice(&points).expect("fewer than 2^32 photons"))
 }
 
 /// The photons in the order of a Morton (Z-order) curve through their
@@ -549,55 +425,6 @@ mod tests {
     }
 
     #[test]
-    fn range_searches_find_the_k_nearest_whatever_their_start() {
-        // Half the photons on a lattice (many exactly equal distances), half
-        // random; searches started from far too small, about right, and far
-        // too large radii, with and without a radius cap, must all find
-        // exactly the brute force's k nearest, ties broken by index.
-        let mut rng = Rng::new(5, 6);
-        let photons: Vec<Photon> = (0..4000)
-            .map(|i| Photon {
-                position: if i % 2 == 0 {
-                    Vec3::new((i % 40) as f32 * 0.025, 0.0, (i / 40 % 40) as f32 * 0.025)
-                } else {
-                    Vec3::new(rng.uniform(), rng.uniform() * 0.05, rng.uniform())
-                },
-                incoming: Vec3::Y,
-                power: Vec3::ONE,
-                normal: Vec3::Y,
-                indirect: false,
-            })
-            .collect();
-        let map = PhotonMap::new(photons);
-        let runs = Runs::new(map.photons());
-        for _ in 0..40 {
-            let q = Vec3::new(rng.uniform(), 0.0, rng.uniform());
-            for (k, max_radius) in [(1, 10.0), (20, 10.0), (200, 10.0), (200, 0.05), (4001, 10.0)] {
-                let mut brute: Vec<(f32, usize)> = map
-                    .photons()
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| ((p.position - q).length_squared(), i))
-                    .filter(|&(d2, _)| d2 <= max_radius * max_radius)
-                    .collect();
-                brute.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                brute.truncate(k);
-                for start in [0.0, 1e-8, 1e-3, 0.5, 100.0] {
-                    let mut search = Search { radius2: start, ..Search::default() };
-                    map.nearest_from(&runs, q, k, max_radius, &mut search);
-                    let mut found = search.found.clone();
-                    if found.len() == k {
-                        // The k-th last, as `close_disc` needs.
-                        assert_eq!(found.last(), brute.last(), "k {k}, cap {max_radius}, start {start}");
-                    }
-                    found.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                    assert_eq!(found, brute, "k {k}, cap {max_radius}, start {start}");
-                }
-            }
-        }
-    }
-
-    #[test]
     fn the_map_and_its_records_do_not_depend_on_the_threads() {
         // Enough photons that kiddo builds in parallel, and records for
         // many chunks of the precomputation; on three walls of a box.
@@ -632,6 +459,15 @@ mod tests {
         let records = one.precomputed_records().unwrap();
         assert_eq!(records.len(), 25_000);
         assert_eq!(records, two.precomputed_records().unwrap());
+        // The kd-tree built beside the precomputation: the same map.
+        let beside =
+            PhotonMap::with_irradiance(photons, 12, &Estimate { k: 100, max_radius: 0.2, cone_filter: None });
+        assert_eq!(beside.photons(), one.photons());
+        assert_eq!(beside.precomputed_records().unwrap(), records);
+        assert_eq!(
+            beside.nearest(Vec3::new(0.3, 0.0, 0.6), 50, 0.2),
+            one.nearest(Vec3::new(0.3, 0.0, 0.6), 50, 0.2)
+        );
         // And the trees answer alike.
         let q = Vec3::new(0.3, 0.0, 0.6);
         assert_eq!(one.nearest(q, 50, 0.2), two.nearest(q, 50, 0.2));

@@ -18,6 +18,7 @@ pub mod file;
 pub mod guide;
 pub mod map;
 pub mod nearest;
+mod precompute;
 mod runs;
 
 use std::time::Instant;
@@ -89,12 +90,17 @@ pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagon
     let has_light = scene.lights.iter().any(|l| l.power().max_element() > 0.0);
     let for_gathering = settings.gather_rays > 0;
 
-    let run = |pass: Pass, count: u32, stats: &mut PhotonStats| {
+    // Traces a map's photons and builds it, with irradiance precomputed
+    // every `stride`-th photon if given.
+    let run = |pass: Pass, count: u32, stride: Option<usize>, stats: &mut PhotonStats| {
         let start = Instant::now();
         let photons = trace(query, pass, count, settings.max_bounces, seed);
         stats.trace_seconds += start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let map = PhotonMap::new(photons);
+        let map = match stride {
+            Some(stride) => PhotonMap::with_irradiance(photons, stride, &settings.global_estimate(diagonal)),
+            None => PhotonMap::new(photons),
+        };
         stats.build_seconds += start.elapsed().as_secs_f64();
         map
     };
@@ -110,17 +116,13 @@ pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagon
         None
     } else {
         stats.global_emitted = settings.global_photons as u64;
-        let mut map = run(Pass::Global { keep_direct: for_gathering }, settings.global_photons, &mut stats);
-        if for_gathering {
-            // Gather rays only need irradiance: estimate it ahead at about 8
-            // photons per gathering disc of `global_k`, every 12th photon by
-            // default. Christensen's every 4th put 25 in each disc and made
-            // building 2.5x slower for 0.4-0.9% less error (BENCHMARKS.md).
-            let start = Instant::now();
-            let stride = (settings.global_k as usize / 8).max(4);
-            map.precompute_irradiance(stride, &settings.global_estimate(diagonal));
-            stats.build_seconds += start.elapsed().as_secs_f64();
-        }
+        // Gather rays only need irradiance: estimate it ahead at about 8
+        // photons per gathering disc of `global_k`, every 12th photon by
+        // default. Christensen's every 4th put 25 in each disc and made
+        // building 2.5x slower for 0.4-0.9% less error (BENCHMARKS.md).
+        let stride = for_gathering.then(|| (settings.global_k as usize / 8).max(4));
+        let map =
+            run(Pass::Global { keep_direct: for_gathering }, settings.global_photons, stride, &mut stats);
         Some(map)
     };
     let caustic = if !has_light || !has_diffuse {
@@ -134,7 +136,7 @@ pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagon
         None
     } else {
         stats.caustic_emitted = settings.caustic_photons as u64;
-        Some(run(Pass::Caustic, settings.caustic_photons, &mut stats))
+        Some(run(Pass::Caustic, settings.caustic_photons, None, &mut stats))
     };
     PhotonMaps { global, caustic, for_gathering, stats }
 }

@@ -65,6 +65,17 @@ impl Runs {
         Runs { runs, levels }
     }
 
+    /// A first guess at the squared radius of a sphere holding `k`
+    /// positions around position `index`: the squared half diagonal of its
+    /// run's box, scaled from the run's photons to `k` (on a surface the
+    /// count grows with the area). Searches grow a radius too small, and find
+    /// the same photons from one too large.
+    pub(super) fn start_radius2(&self, index: usize, k: usize) -> f32 {
+        self.levels[0]
+            .get(index / RUN)
+            .map_or(0.0, |b| 0.25 * (b.max - b.min).length_squared() * k as f32 / RUN as f32)
+    }
+
     /// Every position within squared distance `r2` of `q` (at most, as
     /// `(p - q).length_squared()` measures it), pushed onto `found` in no
     /// particular order as a [`key`]: ordering the keys orders the positions
