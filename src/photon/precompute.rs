@@ -171,16 +171,12 @@ mod tests {
         // exactly the brute force's k nearest, ties broken by index.
         let mut rng = Rng::new(5, 6);
         let photons: Vec<Photon> = (0..4000)
-            .map(|i| Photon {
-                position: if i % 2 == 0 {
+            .map(|i| {
+                Photon::on_floor(if i % 2 == 0 {
                     Vec3::new((i % 40) as f32 * 0.025, 0.0, (i / 40 % 40) as f32 * 0.025)
                 } else {
                     Vec3::new(rng.uniform(), rng.uniform() * 0.05, rng.uniform())
-                },
-                incoming: Vec3::Y,
-                power: Vec3::ONE,
-                normal: Vec3::Y,
-                indirect: false,
+                })
             })
             .collect();
         let map = PhotonMap::new(photons);

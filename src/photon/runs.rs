@@ -158,16 +158,7 @@ mod tests {
                     Vec3::new(rng.uniform(), y, rng.uniform())
                 })
                 .collect();
-            let photons: Vec<Photon> = points
-                .iter()
-                .map(|&position| Photon {
-                    position,
-                    incoming: Vec3::Y,
-                    power: Vec3::ONE,
-                    normal: Vec3::Y,
-                    indirect: false,
-                })
-                .collect();
+            let photons: Vec<Photon> = points.iter().map(|&position| Photon::on_floor(position)).collect();
             let runs = Runs::new(&photons);
             for _ in 0..30 {
                 let q = Vec3::new(rng.uniform(), rng.uniform() * 0.2, rng.uniform());
