@@ -3,7 +3,8 @@
 # every integrator through two caustix binaries (same seed, small sizes) and
 # compares the linear EXR images, bit for bit first, then by RMSE.
 #
-#   scripts/same-images.sh OLD_BINARY NEW_BINARY [OUT_DIR]
+#   scripts/same-images.sh OLD_BINARY NEW_BINARY [OUT_DIR [-- RENDER FLAGS]]
+#   scripts/same-images.sh old new target/same-images -- --backend native
 #
 # Exit 0 when every pair is bit-identical; 1 otherwise. For a pair that
 # differs, the table gives its RMSE beside the RMSE between two seeds of the
@@ -14,10 +15,13 @@ cd "$(dirname "$0")/.."
 old=$1
 new=$2
 out=${3:-target/same-images}
+shift $(( $# >= 3 ? 3 : $# ))
+[ "${1:-}" = "--" ] && shift
+extra=("$@")
 mkdir -p "$out/old" "$out/new"
 integrators=(photon sppm whitted path normals depth)
 flags=(--width 64 --height 48 --spp 2 --photons 20000 --caustic-photons 20000
-       --passes 4 --pass-photons 20000)
+       --passes 4 --pass-photons 20000 ${extra[@]+"${extra[@]}"})
 status=0
 printf '%-10s %-8s %-10s %-26s %s\n' scene integrator result "rmse new-old (relative)" "rmse between seeds (old)"
 for scene in scenes/*.toml; do

@@ -2,12 +2,12 @@
 //!
 //! - Build: binned surface area heuristic (SAH) over triangle centroids,
 //!   12 bins on each axis, subtrees built in parallel with rayon; the binary
-//!   tree is then collapsed into nodes of up to four children (like Embree's
-//!   BVH4), opening the child of largest area first, large subtrees in
+//!   tree is then collapsed into nodes of up to eight children (like Embree's
+//!   BVH8), opening the child of largest area first, large subtrees in
 //!   parallel into their own parts of the node array (the same array
 //!   whatever the threads).
-//! - Layout: 128-byte nodes holding their four children's boxes side by
-//!   side, so one ray tests all four in SIMD lanes; nodes depth-first,
+//! - Layout: 256-byte nodes holding their eight children's boxes side by
+//!   side, so one ray tests them four at a time in SIMD lanes; nodes depth-first,
 //!   triangles copied into leaf order with their vertices inline.
 //! - Traversal: the children a ray enters, nearest first (by entry
 //!   distance); slab tests widened by a floating-point error bound so no ray
@@ -17,7 +17,7 @@
 //!
 //! Hits are reported exactly as Embree reports them (see [`Hit`]).
 
-use glam::{BVec4A, Mat3A, UVec3, Vec3, Vec3A, Vec4};
+use glam::{Mat3A, UVec3, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::embree::TriangleView;
@@ -34,17 +34,20 @@ const PARALLEL_BUILD: usize = 16 * 1024;
 const GAMMA3: f32 = 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// Children per node.
-const WIDTH: usize = 4;
+const WIDTH: usize = 8;
+/// Groups of four children, one SIMD register per axis and bound each.
+const GROUPS: usize = WIDTH / 4;
 
-/// A node of up to four children (128 bytes): their boxes as one lane per
-/// child, and for each child either an interior node or a leaf's triangles.
+/// A node of up to eight children (256 bytes): their boxes as one lane per
+/// child in groups of four, and for each child either an interior node or a
+/// leaf's triangles.
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
 struct Node {
-    /// Per axis, the children's lower bounds.
-    min: [Vec4; 3],
-    /// Per axis, the children's upper bounds.
-    max: [Vec4; 3],
+    /// Per group of four children, per axis, the children's lower bounds.
+    min: [[Vec4; 3]; GROUPS],
+    /// Per group of four children, per axis, the children's upper bounds.
+    max: [[Vec4; 3]; GROUPS],
     /// Per child: an interior child's node index, or a leaf's first triangle.
     child: [u32; WIDTH],
     /// Per child: triangles in a leaf, 0 for an interior node.
@@ -56,8 +59,8 @@ struct Node {
 impl Node {
     /// A node with no children, whose lanes no ray enters.
     const UNUSED: Node = Node {
-        min: [Vec4::INFINITY; 3],
-        max: [Vec4::NEG_INFINITY; 3],
+        min: [[Vec4::INFINITY; 3]; GROUPS],
+        max: [[Vec4::NEG_INFINITY; 3]; GROUPS],
         child: [0; WIDTH],
         count: [0; WIDTH],
         children: 0,
@@ -80,7 +83,7 @@ struct BuildItem {
     triangle: u32,
 }
 
-/// The binary tree before it is collapsed into nodes of four.
+/// The binary tree before it is collapsed into nodes of eight.
 enum BuildNode {
     Leaf {
         bounds: Bounds,
@@ -90,7 +93,7 @@ enum BuildNode {
     Interior {
         bounds: Bounds,
         children: Box<[BuildNode; 2]>,
-        /// Nodes of four this subtree collapses into, so the collapse can
+        /// Nodes of eight this subtree collapses into, so the collapse can
         /// hand each subtree its own part of the node array in parallel.
         collapsed: usize,
     },
@@ -109,7 +112,7 @@ impl BuildNode {
         }
     }
 
-    /// Nodes of four under this one as a child: none for a leaf.
+    /// Nodes of eight under this one as a child: none for a leaf.
     fn collapsed(&self) -> usize {
         match self {
             BuildNode::Leaf { .. } => 0,
@@ -188,7 +191,7 @@ impl Bvh {
     /// leaf whose box the ray enters before `t_max`. `visit` returns the new
     /// `t_max` (smaller after a hit) or `None` to stop the walk at once.
     ///
-    /// A node's four boxes are tested at once; the children entered go on
+    /// A node's eight boxes are tested four at a time; the children entered go on
     /// the stack farthest first with their entry distances, so the nearest
     /// is walked next and subtrees behind a hit found meanwhile are skipped
     /// when popped.
@@ -232,20 +235,20 @@ impl Bvh {
                 }
             } else {
                 let node = &self.nodes[child as usize];
-                let (entered, enter) = slab.enter(node, t_max);
-                // The entered children, nearest first (at most four: insertion sort).
+                let (mut entered, enter) = slab.enter(node, t_max);
+                // The entered children, nearest first (at most eight: insertion sort).
                 let mut order = [(0usize, 0f32); WIDTH];
                 let mut n = 0;
-                for lane in 0..node.children as usize {
-                    if entered.test(lane) {
-                        let mut i = n;
-                        while i > 0 && order[i - 1].1 > enter[lane] {
-                            order[i] = order[i - 1];
-                            i -= 1;
-                        }
-                        order[i] = (lane, enter[lane]);
-                        n += 1;
+                while entered != 0 {
+                    let lane = entered.trailing_zeros() as usize;
+                    entered &= entered - 1;
+                    let mut i = n;
+                    while i > 0 && order[i - 1].1 > enter[lane] {
+                        order[i] = order[i - 1];
+                        i -= 1;
                     }
+                    order[i] = (lane, enter[lane]);
+                    n += 1;
                 }
                 if n > 0 {
                     // Walk the nearest now; stack the others, farthest first.
@@ -308,8 +311,8 @@ impl Intersector for Bvh {
     }
 }
 
-/// The per-ray part of the box test of a node's four children, one child
-/// per SIMD lane.
+/// The per-ray part of the box test of a node's children, one child per
+/// SIMD lane.
 ///
 /// The slab distances are `(bound - origin) * inv`, whose rounding the
 /// `gamma(3)` widening covers. (The cheaper `bound * inv - origin * inv`
@@ -338,24 +341,37 @@ impl SlabRay {
     /// either contains the origin (no limit, even when the origin lies
     /// exactly in a face's plane, where `0 * inf` would be NaN) or the ray
     /// misses it.
+    ///
+    /// Returns a bit per child entered (bit `i` for child `i`) and each
+    /// child's entry distance (meaningful where its bit is set).
     #[inline]
-    fn enter(&self, node: &Node, t_max: f32) -> (BVec4A, Vec4) {
-        let lanes = Vec4::new(0.0, 1.0, 2.0, 3.0);
-        let mut alive = lanes.cmplt(Vec4::splat(node.children as f32));
-        let (mut near, mut far) = (Vec4::ZERO, Vec4::splat(t_max));
-        for axis in 0..3 {
-            let (min, max, origin) = (node.min[axis], node.max[axis], self.origin[axis]);
-            if self.parallel[axis] {
-                alive &= origin.cmpge(min) & origin.cmple(max);
-            } else {
-                let t0 = (min - origin) * self.inv[axis];
-                let t1 = (max - origin) * self.inv[axis];
-                near = near.max(t0.min(t1));
-                far = far.min(t0.max(t1));
+    fn enter(&self, node: &Node, t_max: f32) -> (u32, [f32; WIDTH]) {
+        let used = Vec4::splat(node.children as f32);
+        let mut entered = 0;
+        let mut entry = [0.0; WIDTH];
+        for group in 0..GROUPS {
+            let first = (4 * group) as f32;
+            let mut alive = Vec4::new(first, first + 1.0, first + 2.0, first + 3.0).cmplt(used);
+            if !alive.any() {
+                break;
             }
+            let (mut near, mut far) = (Vec4::ZERO, Vec4::splat(t_max));
+            for axis in 0..3 {
+                let (min, max, origin) = (node.min[group][axis], node.max[group][axis], self.origin[axis]);
+                if self.parallel[axis] {
+                    alive &= origin.cmpge(min) & origin.cmple(max);
+                } else {
+                    let t0 = (min - origin) * self.inv[axis];
+                    let t1 = (max - origin) * self.inv[axis];
+                    near = near.max(t0.min(t1));
+                    far = far.min(t0.max(t1));
+                }
+            }
+            let far = far * (1.0 + 2.0 * GAMMA3);
+            entered |= (alive & near.cmple(far)).bitmask() << (4 * group);
+            near.write_to_slice(&mut entry[4 * group..4 * group + 4]);
         }
-        let far = far * (1.0 + 2.0 * GAMMA3);
-        (alive & near.cmple(far), near)
+        (entered, entry)
     }
 }
 
@@ -585,12 +601,13 @@ fn partition(items: &mut [BuildItem], goes_left: impl Fn(&BuildItem) -> bool) ->
     (mid, left, right)
 }
 
-/// The children of the node of four that stands for a binary node with
-/// children `two`, and how many of the four are used: `two`, with the
+/// The children of the node of eight that stands for a binary node with
+/// children `two`, and how many of the eight are used: `two`, with the
 /// interior one of largest area replaced by its own two while fewer than
-/// four (of equal areas, the last).
+/// eight (of equal areas, the last).
 fn lanes(two: &[BuildNode; 2]) -> ([&BuildNode; WIDTH], usize) {
-    let mut lanes = [&two[0], &two[1], &two[1], &two[1]];
+    let mut lanes = [&two[1]; WIDTH];
+    lanes[0] = &two[0];
     let mut used = 2;
     while used < WIDTH {
         let largest = (0..used)
@@ -606,7 +623,7 @@ fn lanes(two: &[BuildNode; 2]) -> ([&BuildNode; WIDTH], usize) {
     (lanes, used)
 }
 
-/// The nodes of four for the tree under `root`, depth first: each node,
+/// The nodes of eight for the tree under `root`, depth first: each node,
 /// then its children's subtrees in lane order.
 fn collapse(root: &BuildNode) -> Vec<Node> {
     let mut nodes = vec![Node::UNUSED; root.collapsed().max(1)];
@@ -622,7 +639,7 @@ fn collapse(root: &BuildNode) -> Vec<Node> {
 /// collapsed subtree goes to, and the index of that part's first node.
 type Subtree<'a> = (&'a [BuildNode; 2], &'a mut [Node], usize);
 
-/// Writes the node of four with `children` (the first `used`) to `out[0]` and their
+/// Writes the node of eight with `children` (the first `used`) to `out[0]` and their
 /// subtrees after it; `out` is exactly as long as they need and starts at
 /// node `base` of the whole array. Large subtrees are written in parallel,
 /// each into its own part of `out`, so the array is the same whatever the
@@ -631,13 +648,14 @@ fn collapse_into((children, used): ([&BuildNode; WIDTH], usize), out: &mut [Node
     let parallel = out.len() > PARALLEL_BUILD / MAX_LEAF;
     let Some((record, mut rest)) = out.split_first_mut() else { unreachable!("sized by `collapsed`") };
     *record = Node { children: used as u8, ..Node::UNUSED };
-    let mut subtrees: [Option<Subtree>; WIDTH] = [None, None, None, None];
+    let mut subtrees: [Option<Subtree>; WIDTH] = std::array::from_fn(|_| None);
     let mut next = base + 1;
     for (lane, child) in children[..used].iter().enumerate() {
         let b = child.bounds();
+        let (group, slot) = (lane / 4, lane % 4);
         for axis in 0..3 {
-            record.min[axis][lane] = b.min[axis];
-            record.max[axis][lane] = b.max[axis];
+            record.min[group][axis][slot] = b.min[axis];
+            record.max[group][axis][slot] = b.max[axis];
         }
         match child {
             BuildNode::Leaf { first, count, .. } => {
@@ -666,8 +684,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn nodes_are_two_cache_lines() {
-        assert_eq!(std::mem::size_of::<Node>(), 128);
+    fn nodes_are_four_cache_lines() {
+        assert_eq!(std::mem::size_of::<Node>(), 256);
     }
 
     #[test]
@@ -731,14 +749,14 @@ mod tests {
         assert_eq!(one.nodes.len(), two.nodes.len());
         for (a, b) in one.nodes.iter().zip(&two.nodes) {
             assert_eq!((a.child, a.count, a.children), (b.child, b.count, b.children));
-            for axis in 0..3 {
+            for (group, axis) in (0..GROUPS).flat_map(|g| (0..3).map(move |a| (g, a))) {
                 assert_eq!(
-                    a.min[axis].to_array().map(f32::to_bits),
-                    b.min[axis].to_array().map(f32::to_bits)
+                    a.min[group][axis].to_array().map(f32::to_bits),
+                    b.min[group][axis].to_array().map(f32::to_bits)
                 );
                 assert_eq!(
-                    a.max[axis].to_array().map(f32::to_bits),
-                    b.max[axis].to_array().map(f32::to_bits)
+                    a.max[group][axis].to_array().map(f32::to_bits),
+                    b.max[group][axis].to_array().map(f32::to_bits)
                 );
             }
         }
@@ -793,21 +811,16 @@ mod tests {
     fn rays_lying_in_a_box_face_plane_are_inside_the_slab() {
         // One child, the box [0, 1] x [0, 1] x [2, 3], in the first lane;
         // the other lanes are unused and must never be entered.
-        let mut node = Node {
-            min: [Vec4::INFINITY; 3],
-            max: [Vec4::NEG_INFINITY; 3],
-            child: [0; WIDTH],
-            count: [1, 0, 0, 0],
-            children: 1,
-        };
+        let mut node = Node { children: 1, ..Node::UNUSED };
+        node.count[0] = 1;
         for (axis, (lo, hi)) in [(0.0, 1.0), (0.0, 1.0), (2.0, 3.0)].into_iter().enumerate() {
-            node.min[axis][0] = lo;
-            node.max[axis][0] = hi;
+            node.min[0][axis][0] = lo;
+            node.max[0][axis][0] = hi;
         }
         let first_lane = |ray: &Ray| {
             let (entered, enter) = SlabRay::new(ray).enter(&node, ray.t_max);
-            assert!(!(entered.test(1) || entered.test(2) || entered.test(3)), "an unused lane was entered");
-            entered.test(0).then_some(enter[0])
+            assert_eq!(entered & !1, 0, "an unused lane was entered");
+            (entered & 1 != 0).then_some(enter[0])
         };
         let dir = Vec3::new(1.0, 0.5, 0.0);
         for z in [2.0, 2.5, 3.0] {
