@@ -1,23 +1,26 @@
 //! The native intersector: a bounding volume hierarchy in pure Rust.
 //!
 //! - Build: binned surface area heuristic (SAH) over triangle centroids,
-//!   12 bins on each axis, subtrees built in parallel with rayon; the binary
-//!   tree is then collapsed into nodes of up to eight children (like Embree's
-//!   BVH8), opening the child of largest area first, large subtrees in
-//!   parallel into their own parts of the node array (the same array
+//!   12 bins on each axis, down to leaves of at most four triangles,
+//!   subtrees built in parallel with rayon; the binary tree is then
+//!   collapsed into nodes of up to eight children (like Embree's BVH8),
+//!   opening the child of largest area first, large subtrees in parallel
+//!   into their own parts of the node and leaf arrays (the same arrays
 //!   whatever the threads).
 //! - Layout: 256-byte nodes holding their eight children's boxes side by
-//!   side, so one ray tests them four at a time in SIMD lanes; nodes depth-first,
-//!   triangles copied into leaf order with their vertices inline.
+//!   side, so one ray tests them four at a time in SIMD lanes; leaves
+//!   holding their four triangles' vertices side by side (like Embree's
+//!   `triangle4v`); both depth-first.
 //! - Traversal: the children a ray enters, nearest first (by entry
 //!   distance); slab tests widened by a floating-point error bound so no ray
 //!   slips past a box it touches.
 //! - Triangles: the watertight test of Woop, Benthin and Wald (JCGT 2013),
-//!   so rays through shared edges and vertices of a closed mesh never leak.
+//!   a leaf's four at once, so rays through shared edges and vertices of a
+//!   closed mesh never leak.
 //!
 //! Hits are reported exactly as Embree reports them (see [`Hit`]).
 
-use glam::{Mat3A, UVec3, Vec3, Vec3A, Vec4};
+use glam::{UVec3, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::embree::TriangleView;
@@ -67,12 +70,49 @@ impl Node {
     };
 }
 
-/// A triangle in leaf order, vertices inline (44 bytes).
+/// A triangle as the build reads it, vertices inline.
 #[derive(Debug, Clone, Copy)]
 struct Triangle {
     v: [Vec3; 3],
     geom_id: u32,
     prim_id: u32,
+}
+
+/// A leaf's triangles (up to four) side by side, one per SIMD lane, so a
+/// ray's edge functions for all of them take one pass (176 bytes).
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(16))]
+struct Leaf {
+    /// Per vertex, per axis, one lane per triangle.
+    v: [[Vec4; 3]; 3],
+    geom_id: [u32; MAX_LEAF],
+    prim_id: [u32; MAX_LEAF],
+}
+
+impl Leaf {
+    /// No triangles.
+    const EMPTY: Leaf = Leaf { v: [[Vec4::ZERO; 3]; 3], geom_id: [0; MAX_LEAF], prim_id: [0; MAX_LEAF] };
+
+    /// The leaf holding `triangles` (at most four; unused lanes are zero
+    /// and never tested).
+    fn new(triangles: impl Iterator<Item = Triangle>) -> Leaf {
+        let mut leaf = Leaf::EMPTY;
+        for (lane, triangle) in triangles.enumerate() {
+            for (vertex, v) in triangle.v.iter().enumerate() {
+                for axis in 0..3 {
+                    leaf.v[vertex][axis][lane] = v[axis];
+                }
+            }
+            leaf.geom_id[lane] = triangle.geom_id;
+            leaf.prim_id[lane] = triangle.prim_id;
+        }
+        leaf
+    }
+
+    /// The vertices of the triangle in `lane`.
+    fn vertices(&self, lane: usize) -> [Vec3; 3] {
+        self.v.map(|v| Vec3::new(v[0][lane], v[1][lane], v[2][lane]))
+    }
 }
 
 /// A triangle during the build: its bounds, centroid, and where it came from.
@@ -96,6 +136,8 @@ enum BuildNode {
         /// Nodes of eight this subtree collapses into, so the collapse can
         /// hand each subtree its own part of the node array in parallel.
         collapsed: usize,
+        /// Leaves under this node, for the same reason.
+        leaves: usize,
     },
 }
 
@@ -103,7 +145,16 @@ impl BuildNode {
     fn interior(bounds: Bounds, children: [BuildNode; 2]) -> BuildNode {
         let (lanes, used) = lanes(&children);
         let collapsed = 1 + lanes[..used].iter().map(|lane| lane.collapsed()).sum::<usize>();
-        BuildNode::Interior { bounds, children: Box::new(children), collapsed }
+        let leaves = children.iter().map(BuildNode::leaves).sum();
+        BuildNode::Interior { bounds, children: Box::new(children), collapsed, leaves }
+    }
+
+    /// Leaves in this subtree.
+    fn leaves(&self) -> usize {
+        match self {
+            BuildNode::Leaf { .. } => 1,
+            BuildNode::Interior { leaves, .. } => *leaves,
+        }
     }
 
     fn bounds(&self) -> Bounds {
@@ -137,7 +188,8 @@ pub struct BvhStats {
 /// The native BVH over a set of triangle meshes.
 pub struct Bvh {
     nodes: Vec<Node>,
-    triangles: Vec<Triangle>,
+    /// Leaves in depth-first order; a node's leaf lane holds its index.
+    leaves: Vec<Leaf>,
 }
 
 impl Bvh {
@@ -161,12 +213,15 @@ impl Bvh {
             })
             .collect();
         if items.is_empty() {
-            return Bvh { nodes: Vec::new(), triangles: Vec::new() };
+            return Bvh { nodes: Vec::new(), leaves: Vec::new() };
         }
         let span = Span::of(&items);
         let root = build_node(&mut items, 0, span);
-        let triangles = items.par_iter().map(|item| source[item.triangle as usize]).collect();
-        Bvh { nodes: collapse(&root), triangles }
+        let leaf = |first: usize, count: usize| {
+            Leaf::new(items[first..first + count].iter().map(|item| source[item.triangle as usize]))
+        };
+        let (nodes, leaves) = collapse(&root, &leaf);
+        Bvh { nodes, leaves }
     }
 
     /// Size and shape of the tree.
@@ -178,24 +233,26 @@ impl Bvh {
                 .max()
                 .map_or(1, |d| 1 + d)
         }
+        let leaf_lanes = |n: &Node| (0..n.children as usize).map(|c| n.count[c] as usize).sum::<usize>();
         BvhStats {
             nodes: self.nodes.len(),
-            triangles: self.triangles.len(),
+            triangles: self.nodes.iter().map(leaf_lanes).sum(),
             bytes: self.nodes.len() * std::mem::size_of::<Node>()
-                + self.triangles.len() * std::mem::size_of::<Triangle>(),
+                + self.leaves.len() * std::mem::size_of::<Leaf>(),
             depth: if self.nodes.is_empty() { 0 } else { depth(&self.nodes, 0) },
         }
     }
 
-    /// Walks the tree front to back, calling `visit` on each triangle of each
-    /// leaf whose box the ray enters before `t_max`. `visit` returns the new
-    /// `t_max` (smaller after a hit) or `None` to stop the walk at once.
+    /// Walks the tree front to back, calling `visit` on each leaf (and its
+    /// count of triangles) whose box the ray enters before `t_max`. `visit`
+    /// returns the new `t_max` (smaller after a hit) or `None` to stop the
+    /// walk at once.
     ///
     /// A node's eight boxes are tested four at a time; the children entered go on
     /// the stack farthest first with their entry distances, so the nearest
     /// is walked next and subtrees behind a hit found meanwhile are skipped
     /// when popped.
-    fn traverse<'s>(&'s self, ray: &Ray, visit: impl FnMut(&'s Triangle, f32) -> Option<f32>) {
+    fn traverse<'s>(&'s self, ray: &Ray, visit: impl FnMut(&'s Leaf, usize, f32) -> Option<f32>) {
         if self.nodes.is_empty() {
             return;
         }
@@ -212,13 +269,13 @@ impl Bvh {
         });
     }
 
-    /// [`Bvh::traverse`] with a stack of pending children: (node index or
-    /// first triangle, triangles in a leaf or 0, entry distance).
+    /// [`Bvh::traverse`] with a stack of pending children: (node or leaf
+    /// index, triangles in a leaf or 0, entry distance).
     fn walk<'s>(
         &'s self,
         ray: &Ray,
         stack: &mut Vec<(u32, u16, f32)>,
-        mut visit: impl FnMut(&'s Triangle, f32) -> Option<f32>,
+        mut visit: impl FnMut(&'s Leaf, usize, f32) -> Option<f32>,
     ) {
         let slab = SlabRay::new(ray);
         let mut t_max = ray.t_max;
@@ -226,12 +283,9 @@ impl Bvh {
         loop {
             let (child, count) = current;
             if count > 0 {
-                let first = child as usize;
-                for triangle in &self.triangles[first..first + count as usize] {
-                    match visit(triangle, t_max) {
-                        Some(t) => t_max = t,
-                        None => return,
-                    }
+                match visit(&self.leaves[child as usize], count as usize, t_max) {
+                    Some(t) => t_max = t,
+                    None => return,
                 }
             } else {
                 let node = &self.nodes[child as usize];
@@ -275,33 +329,34 @@ impl Bvh {
 impl Intersector for Bvh {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let test = WatertightRay::new(ray);
-        let mut best: Option<(f32, f32, f32, &Triangle)> = None;
-        self.traverse(ray, |triangle, t_max| {
-            if let Some((t, u, v)) = test.intersect(&triangle.v, t_max) {
-                best = Some((t, u, v, triangle));
-                return Some(t);
-            }
-            Some(t_max)
+        let mut best: Option<(f32, f32, f32, &Leaf, usize)> = None;
+        self.traverse(ray, |leaf, count, t_max| {
+            test.intersect_leaf(leaf, count, t_max, |lane, t, u, v| {
+                best = Some((t, u, v, leaf, lane));
+                true
+            })
         });
-        best.map(|(t, u, v, tri)| Hit {
-            t,
-            u,
-            v,
-            geom_id: tri.geom_id,
-            prim_id: tri.prim_id,
-            ng: (tri.v[1] - tri.v[0]).cross(tri.v[2] - tri.v[0]),
+        best.map(|(t, u, v, leaf, lane)| {
+            let tri = leaf.vertices(lane);
+            Hit {
+                t,
+                u,
+                v,
+                geom_id: leaf.geom_id[lane],
+                prim_id: leaf.prim_id[lane],
+                ng: (tri[1] - tri[0]).cross(tri[2] - tri[0]),
+            }
         })
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
         let test = WatertightRay::new(ray);
         let mut hit = false;
-        self.traverse(ray, |triangle, t_max| {
-            if test.intersect(&triangle.v, t_max).is_some() {
+        self.traverse(ray, |leaf, count, t_max| {
+            test.intersect_leaf(leaf, count, t_max, |_, _, _, _| {
                 hit = true;
-                return None;
-            }
-            Some(t_max)
+                false
+            })
         });
         hit
     }
@@ -379,12 +434,20 @@ impl SlabRay {
 /// runs along +z, then each triangle is tested in 2D with edge functions
 /// whose signs are consistent across shared edges.
 ///
-/// The shear is a matrix whose rows each hold one 1, one `-S` and one 0
-/// (and `Sz` alone), so `shear * p` rounds exactly as the scalar
-/// `p[kx] - Sx p[kz]` of the paper does: adding a zero product is exact.
+/// A vertex `p` relative to the origin becomes `(p[kx] - sx p[kz], p[ky] -
+/// sy p[kz], sz p[kz])`, computed the same way (the same operations in the
+/// same order) one triangle at a time and four at a time in SIMD lanes, so
+/// both give the same bits.
 struct WatertightRay {
-    origin: Vec3A,
-    shear: Mat3A,
+    origin: Vec3,
+    /// The axes the ray's direction maps to x, y and z.
+    k: [usize; 3],
+    /// The shear: `dir[kx] / dir[kz]`, `dir[ky] / dir[kz]`, `1 / dir[kz]`.
+    s: [f32; 3],
+    /// The origin and the shear, each in all four lanes, for
+    /// [`WatertightRay::intersect_leaf`].
+    origin4: [Vec4; 3],
+    s4: [Vec4; 3],
 }
 
 impl WatertightRay {
@@ -403,22 +466,75 @@ impl WatertightRay {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-        let axis = |k: usize| Vec3A::from(Vec3::AXES[k]);
-        let rows = [axis(kx) - sx * axis(kz), axis(ky) - sy * axis(kz), sz * axis(kz)];
-        // The rows' zero entries must be exact zeros (not -0 * x products with
-        // a rounding): they are, because `axis` has exact 0s and 1s.
-        let shear = Mat3A::from_cols(rows[0], rows[1], rows[2]).transpose();
-        WatertightRay { origin: Vec3A::from(ray.origin), shear }
+        let s = [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]];
+        WatertightRay {
+            origin: ray.origin,
+            k: [kx, ky, kz],
+            s,
+            origin4: [0, 1, 2].map(|axis| Vec4::splat(ray.origin[axis])),
+            s4: s.map(Vec4::splat),
+        }
+    }
+
+    /// Tests the first `count` triangles of `leaf` in lane order, exactly as
+    /// [`WatertightRay::intersect`] on each in turn would: each hit at or
+    /// before `t_max` goes to `hit(lane, t, u, v)` and becomes the new
+    /// `t_max`. Returns the last `t_max`, or `None` once `hit` returns false.
+    ///
+    /// The shear and the edge functions run in SIMD lanes, one triangle
+    /// each; the few triangles they do not rule out are finished one by one.
+    #[inline]
+    fn intersect_leaf(
+        &self,
+        leaf: &Leaf,
+        count: usize,
+        mut t_max: f32,
+        mut hit: impl FnMut(usize, f32, f32, f32) -> bool,
+    ) -> Option<f32> {
+        let [kx, ky, kz] = self.k;
+        let sheared = |v: &[Vec4; 3]| {
+            let (px, py, pz) = (v[kx] - self.origin4[kx], v[ky] - self.origin4[ky], v[kz] - self.origin4[kz]);
+            [px - self.s4[0] * pz, py - self.s4[1] * pz, self.s4[2] * pz]
+        };
+        let [a, b, c] = [sheared(&leaf.v[0]), sheared(&leaf.v[1]), sheared(&leaf.v[2])];
+        let u = c[0] * b[1] - c[1] * b[0];
+        let vv = a[0] * c[1] - a[1] * c[0];
+        let w = b[0] * a[1] - b[1] * a[0];
+        let zero = Vec4::ZERO;
+        let on_edge = u.cmpeq(zero) | vv.cmpeq(zero) | w.cmpeq(zero);
+        let outside = (u.cmplt(zero) | vv.cmplt(zero) | w.cmplt(zero))
+            & (u.cmpgt(zero) | vv.cmpgt(zero) | w.cmpgt(zero));
+        // Lanes still in question: inside all edges, or on one (decided in
+        // double precision by the scalar test).
+        let mut open = (on_edge.bitmask() | !outside.bitmask()) & ((1 << count) - 1);
+        while open != 0 {
+            let lane = open.trailing_zeros() as usize;
+            open &= open - 1;
+            let found = if on_edge.test(lane) {
+                self.intersect(&leaf.vertices(lane), t_max)
+            } else {
+                Self::distance(u[lane], vv[lane], w[lane], [a[2][lane], b[2][lane], c[2][lane]], t_max)
+            };
+            if let Some((t, bu, bv)) = found {
+                if !hit(lane, t, bu, bv) {
+                    return None;
+                }
+                t_max = t;
+            }
+        }
+        Some(t_max)
     }
 
     /// `(t, u, v)` with Embree's barycentrics, if the triangle is hit at
     /// `0 < t <= t_max`.
     #[inline]
     fn intersect(&self, v: &[Vec3; 3], t_max: f32) -> Option<(f32, f32, f32)> {
-        let a = self.shear * (Vec3A::from(v[0]) - self.origin);
-        let b = self.shear * (Vec3A::from(v[1]) - self.origin);
-        let c = self.shear * (Vec3A::from(v[2]) - self.origin);
+        let [kx, ky, kz] = self.k;
+        let sheared = |v: Vec3| {
+            let (px, py, pz) = (v[kx] - self.origin[kx], v[ky] - self.origin[ky], v[kz] - self.origin[kz]);
+            Vec3::new(px - self.s[0] * pz, py - self.s[1] * pz, self.s[2] * pz)
+        };
+        let (a, b, c) = (sheared(v[0]), sheared(v[1]), sheared(v[2]));
         // Edge functions: U weights vertex 0, V vertex 1, W vertex 2.
         let mut u = c.x * b.y - c.y * b.x;
         let mut vv = a.x * c.y - a.y * c.x;
@@ -434,11 +550,19 @@ impl WatertightRay {
         if (u < 0.0 || vv < 0.0 || w < 0.0) && (u > 0.0 || vv > 0.0 || w > 0.0) {
             return None;
         }
+        Self::distance(u, vv, w, [a.z, b.z, c.z], t_max)
+    }
+
+    /// The end of the test, for a ray inside (or on) all three edges: the
+    /// hit's `(t, u, v)` from the edge functions and the sheared vertices'
+    /// `z`, if `0 < t <= t_max`.
+    #[inline]
+    fn distance(u: f32, vv: f32, w: f32, z: [f32; 3], t_max: f32) -> Option<(f32, f32, f32)> {
         let det = u + vv + w;
         if det == 0.0 {
             return None;
         }
-        let t_scaled = u * a.z + vv * b.z + w * c.z;
+        let t_scaled = u * z[0] + vv * z[1] + w * z[2];
         // t = t_scaled / det must lie in (0, t_max]; compare without dividing.
         let sign = det.signum();
         if t_scaled * sign <= 0.0 || t_scaled * sign > t_max * det.abs() {
@@ -507,9 +631,11 @@ impl Span {
 /// boxes) for their own builds.
 fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
     let (bounds, centroids) = (span.bounds.bounds(), span.centroids);
-    let leaf = || BuildNode::Leaf { bounds, first, count: items.len() };
-    if items.len() == 1 {
-        return leaf();
+    // A leaf whenever four triangles or fewer remain: a leaf's four are
+    // tested at once, so splitting them saves no triangle tests, only adds
+    // boxes (Embree's SAH counts leaves in blocks of four the same way).
+    if items.len() <= MAX_LEAF {
+        return BuildNode::Leaf { bounds, first, count: items.len() };
     }
     let extent = centroids.max - centroids.min;
     let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), BINS as f32 / extent, Vec3A::ZERO);
@@ -552,17 +678,10 @@ fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
         }
     }
 
-    // SAH with traversal cost 1 and intersection cost 1 per triangle,
-    // relative to the parent's area.
-    let leaf_cost = items.len() as f32;
-    let Some((cost, axis, split)) = best else {
+    let Some((_, axis, split)) = best else {
         // All centroids coincide: no split separates them.
-        return if items.len() <= MAX_LEAF { leaf() } else { median_split(items, first, bounds) };
+        return median_split(items, first, bounds);
     };
-    let split_cost = 1.0 + cost / bounds.half_area().max(f32::MIN_POSITIVE);
-    if items.len() <= MAX_LEAF && leaf_cost <= split_cost {
-        return leaf();
-    }
     let (mid, left_span, right_span) =
         partition(items, |item| bins_of(item.centroid)[axis] as usize <= split);
     let (left, right) = items.split_at_mut(mid);
@@ -624,32 +743,49 @@ fn lanes(two: &[BuildNode; 2]) -> ([&BuildNode; WIDTH], usize) {
 }
 
 /// The nodes of eight for the tree under `root`, depth first: each node,
-/// then its children's subtrees in lane order.
-fn collapse(root: &BuildNode) -> Vec<Node> {
+/// then its children's subtrees in lane order; and the leaves, in the order
+/// the nodes name them, each made by `leaf(first, count)` from the build's
+/// leaf-order triangles.
+fn collapse(root: &BuildNode, leaf: &(impl Fn(usize, usize) -> Leaf + Sync)) -> (Vec<Node>, Vec<Leaf>) {
     let mut nodes = vec![Node::UNUSED; root.collapsed().max(1)];
+    let mut leaves = vec![Leaf::EMPTY; root.leaves()];
     let root_lanes = match root {
         BuildNode::Leaf { .. } => ([root; WIDTH], 1),
         BuildNode::Interior { children, .. } => lanes(children),
     };
-    collapse_into(root_lanes, &mut nodes, 0);
-    nodes
+    collapse_into(
+        root_lanes,
+        Parts { nodes: &mut nodes, node_base: 0, leaves: &mut leaves, leaf_base: 0 },
+        leaf,
+    );
+    (nodes, leaves)
 }
 
-/// A binary node's two children, the part of the node array their
-/// collapsed subtree goes to, and the index of that part's first node.
-type Subtree<'a> = (&'a [BuildNode; 2], &'a mut [Node], usize);
+/// The parts of the node and leaf arrays one collapsed subtree fills, and
+/// the indices of their first entries in the whole arrays.
+struct Parts<'a> {
+    nodes: &'a mut [Node],
+    node_base: usize,
+    leaves: &'a mut [Leaf],
+    leaf_base: usize,
+}
 
-/// Writes the node of eight with `children` (the first `used`) to `out[0]` and their
-/// subtrees after it; `out` is exactly as long as they need and starts at
-/// node `base` of the whole array. Large subtrees are written in parallel,
-/// each into its own part of `out`, so the array is the same whatever the
-/// threads.
-fn collapse_into((children, used): ([&BuildNode; WIDTH], usize), out: &mut [Node], base: usize) {
-    let parallel = out.len() > PARALLEL_BUILD / MAX_LEAF;
-    let Some((record, mut rest)) = out.split_first_mut() else { unreachable!("sized by `collapsed`") };
+/// Writes the node of eight with `children` (the first `used`) to the
+/// first of `out.nodes`, their subtrees' nodes after it and their leaves to
+/// `out.leaves`; both parts are exactly as long as they need. Large
+/// subtrees are written in parallel, each into its own parts, so the arrays
+/// are the same whatever the threads.
+fn collapse_into(
+    (children, used): ([&BuildNode; WIDTH], usize),
+    out: Parts,
+    leaf: &(impl Fn(usize, usize) -> Leaf + Sync),
+) {
+    let parallel = out.nodes.len() > PARALLEL_BUILD / MAX_LEAF;
+    let Some((record, mut nodes)) = out.nodes.split_first_mut() else { unreachable!("sized by `collapsed`") };
+    let mut leaves = out.leaves;
     *record = Node { children: used as u8, ..Node::UNUSED };
-    let mut subtrees: [Option<Subtree>; WIDTH] = std::array::from_fn(|_| None);
-    let mut next = base + 1;
+    let mut subtrees: [Option<(&[BuildNode; 2], Parts)>; WIDTH] = std::array::from_fn(|_| None);
+    let (mut next_node, mut next_leaf) = (out.node_base + 1, out.leaf_base);
     for (lane, child) in children[..used].iter().enumerate() {
         let b = child.bounds();
         let (group, slot) = (lane / 4, lane % 4);
@@ -659,19 +795,27 @@ fn collapse_into((children, used): ([&BuildNode; WIDTH], usize), out: &mut [Node
         }
         match child {
             BuildNode::Leaf { first, count, .. } => {
-                record.child[lane] = *first as u32;
+                let (slot, tail) = std::mem::take(&mut leaves).split_first_mut().expect("sized by `leaves`");
+                leaves = tail;
+                *slot = leaf(*first, *count);
+                record.child[lane] = next_leaf as u32;
                 record.count[lane] = *count as u16;
+                next_leaf += 1;
             }
-            BuildNode::Interior { children: two, collapsed, .. } => {
-                let (part, tail) = std::mem::take(&mut rest).split_at_mut(*collapsed);
-                rest = tail;
-                record.child[lane] = next as u32;
-                subtrees[lane] = Some((two, part, next));
-                next += collapsed;
+            BuildNode::Interior { children: two, collapsed, leaves: below, .. } => {
+                let (node_part, node_tail) = std::mem::take(&mut nodes).split_at_mut(*collapsed);
+                let (leaf_part, leaf_tail) = std::mem::take(&mut leaves).split_at_mut(*below);
+                (nodes, leaves) = (node_tail, leaf_tail);
+                record.child[lane] = next_node as u32;
+                let parts =
+                    Parts { nodes: node_part, node_base: next_node, leaves: leaf_part, leaf_base: next_leaf };
+                subtrees[lane] = Some((two, parts));
+                next_node += collapsed;
+                next_leaf += below;
             }
         }
     }
-    let write = |(two, part, at): Subtree| collapse_into(lanes(two), part, at);
+    let write = |(two, parts): (&[BuildNode; 2], Parts)| collapse_into(lanes(two), parts, leaf);
     if parallel {
         subtrees.into_par_iter().flatten().for_each(write);
     } else {
@@ -702,6 +846,68 @@ mod tests {
         assert!(WatertightRay::new(&behind).intersect(&v, f32::INFINITY).is_none());
         let short = Ray { t_max: 0.5, ..Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z) };
         assert!(WatertightRay::new(&short).intersect(&v, short.t_max).is_none());
+    }
+
+    #[test]
+    fn a_leaf_answers_as_its_triangles_one_at_a_time() {
+        // Four triangles of a fan around the origin on z = 0, sharing edges
+        // and the centre vertex, plus a tilted one across them: rays aimed
+        // at vertices and along edges put edge functions exactly at zero
+        // (the double-precision path), others at random points.
+        let fan = [Vec3::X, Vec3::Y, -Vec3::X, -Vec3::Y, Vec3::X];
+        let mut triangles: Vec<[Vec3; 3]> = (0..4).map(|i| [Vec3::ZERO, fan[i], fan[i + 1]]).collect();
+        triangles.push([Vec3::new(-1.0, 0.0, -0.5), Vec3::new(1.0, 0.0, 0.5), Vec3::new(0.0, 1.0, 0.0)]);
+        let mut state = 7u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut targets =
+            vec![Vec3::ZERO, Vec3::X, Vec3::Y, -Vec3::X, Vec3::new(0.5, 0.5, 0.0), Vec3::new(0.5, 0.0, 0.0)];
+        targets.extend((0..400).map(|_| Vec3::new(next(), next(), 0.0)));
+        let (mut hits, mut on_vertices) = (0, 0);
+        for (i, target) in targets.iter().enumerate() {
+            for first in 0..2 {
+                for count in 1..=MAX_LEAF {
+                    let chosen = &triangles[first..first + count];
+                    let leaf = Leaf::new(chosen.iter().map(|&v| Triangle { v, geom_id: 0, prim_id: 0 }));
+                    let from =
+                        if i % 2 == 0 { Vec3::new(0.0, 0.0, 3.0) } else { Vec3::new(next(), next(), -3.0) };
+                    let ray = Ray::new(from, *target - from);
+                    let test = WatertightRay::new(&ray);
+                    // One at a time, each with the t_max the hits before left.
+                    let mut expected = Vec::new();
+                    let mut t_max = ray.t_max;
+                    for (lane, v) in chosen.iter().enumerate() {
+                        if let Some((t, u, w)) = test.intersect(v, t_max) {
+                            expected.push((lane, t.to_bits(), u.to_bits(), w.to_bits()));
+                            t_max = t;
+                        }
+                    }
+                    let mut found = Vec::new();
+                    let end = test.intersect_leaf(&leaf, count, ray.t_max, |lane, t, u, w| {
+                        found.push((lane, t.to_bits(), u.to_bits(), w.to_bits()));
+                        true
+                    });
+                    assert_eq!(found, expected, "ray {i}, triangles {first}..{}", first + count);
+                    assert_eq!(end, Some(t_max));
+                    // Stopped at the first hit: nothing after it is tested.
+                    let mut stopped = Vec::new();
+                    let end = test.intersect_leaf(&leaf, count, ray.t_max, |lane, _, _, _| {
+                        stopped.push(lane);
+                        false
+                    });
+                    assert_eq!(stopped, expected.first().map(|e| e.0).into_iter().collect::<Vec<_>>());
+                    assert_eq!(end.is_none(), !expected.is_empty());
+                    hits += expected.len();
+                    on_vertices += usize::from(i < 6 && !expected.is_empty());
+                }
+            }
+        }
+        assert!(
+            hits > 1000 && on_vertices > 10,
+            "{hits} hits, {on_vertices} rays at vertices and edges that hit"
+        );
     }
 
     #[test]
@@ -760,7 +966,7 @@ mod tests {
                 );
             }
         }
-        let ids = |bvh: &Bvh| bvh.triangles.iter().map(|t| t.prim_id).collect::<Vec<_>>();
+        let ids = |bvh: &Bvh| bvh.leaves.iter().flat_map(|l| l.prim_id).collect::<Vec<_>>();
         assert_eq!(ids(&one), ids(&two));
         // Every interior lane points past its node, and every node is reached once.
         let mut reached = vec![0u32; one.nodes.len()];
@@ -774,6 +980,18 @@ mod tests {
             }
         }
         assert!(reached.iter().all(|&r| r == 1));
+        // Every leaf is named by one lane and holds one to four triangles.
+        let mut named = vec![0u32; one.leaves.len()];
+        for node in &one.nodes {
+            for lane in 0..node.children as usize {
+                if node.count[lane] > 0 {
+                    assert!((1..=MAX_LEAF as u16).contains(&node.count[lane]));
+                    named[node.child[lane] as usize] += 1;
+                }
+            }
+        }
+        assert!(named.iter().all(|&n| n == 1));
+        assert_eq!(one.stats().triangles, indices.len());
     }
 
     #[test]
