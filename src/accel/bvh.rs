@@ -179,7 +179,7 @@ pub struct BvhStats {
     pub nodes: usize,
     /// Triangles stored (degenerate ones are kept and never hit).
     pub triangles: usize,
-    /// Bytes of nodes plus triangle copies.
+    /// Bytes of nodes plus leaves (the triangles copied into them).
     pub bytes: usize,
     /// Longest root-to-leaf path.
     pub depth: usize,
