@@ -51,7 +51,7 @@ struct Node {
     min: [[Vec4; 3]; GROUPS],
     /// Per group of four children, per axis, the children's upper bounds.
     max: [[Vec4; 3]; GROUPS],
-    /// Per child: an interior child's node index, or a leaf's first triangle.
+    /// Per child: an interior child's node index, or a leaf's index.
     child: [u32; WIDTH],
     /// Per child: triangles in a leaf, 0 for an interior node.
     count: [u16; WIDTH],
@@ -302,7 +302,8 @@ impl Bvh {
             } else {
                 let node = &self.nodes[child as usize];
                 let (mut entered, enter) = slab.enter(node, t_max);
-                // The entered children, nearest first (at most eight: insertion sort).
+                // The entered children (at most eight), nearest first by
+                // insertion sort where that order is asked for.
                 let mut order = [(0usize, 0f32); WIDTH];
                 let mut n = 0;
                 while entered != 0 {
@@ -317,7 +318,7 @@ impl Bvh {
                     n += 1;
                 }
                 if n > 0 {
-                    // Walk the nearest now; stack the others, farthest first.
+                    // Walk the first now; stack the others, last first.
                     for &(lane, t) in order[1..n].iter().rev() {
                         stack.push((node.child[lane], node.count[lane], t));
                     }
