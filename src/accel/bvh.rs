@@ -20,6 +20,8 @@
 //!
 //! Hits are reported exactly as Embree reports them (see [`Hit`]).
 
+use std::ops::{Mul, Sub};
+
 use glam::{UVec3, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
@@ -448,11 +450,11 @@ impl SlabRay {
 /// whose signs are consistent across shared edges.
 ///
 /// A vertex `p` relative to the origin becomes `(p[kx] - sx p[kz], p[ky] -
-/// sy p[kz], sz p[kz])`, computed the same way (the same operations in the
-/// same order) one triangle at a time and four at a time in SIMD lanes, so
-/// both give the same bits.
+/// sy p[kz], sz p[kz])` ([`shear`]), computed by the same functions one
+/// triangle at a time and four at a time in SIMD lanes, so both give the
+/// same bits.
 struct WatertightRay {
-    origin: Vec3,
+    origin: [f32; 3],
     /// The axes the ray's direction maps to x, y and z.
     k: [usize; 3],
     /// The shear: `dir[kx] / dir[kz]`, `dir[ky] / dir[kz]`, `1 / dir[kz]`.
@@ -481,7 +483,7 @@ impl WatertightRay {
         }
         let s = [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]];
         WatertightRay {
-            origin: ray.origin,
+            origin: ray.origin.to_array(),
             k: [kx, ky, kz],
             s,
             origin4: [0, 1, 2].map(|axis| Vec4::splat(ray.origin[axis])),
@@ -504,15 +506,9 @@ impl WatertightRay {
         mut t_max: f32,
         mut hit: impl FnMut(usize, f32, f32, f32) -> bool,
     ) -> Option<f32> {
-        let [kx, ky, kz] = self.k;
-        let sheared = |v: &[Vec4; 3]| {
-            let (px, py, pz) = (v[kx] - self.origin4[kx], v[ky] - self.origin4[ky], v[kz] - self.origin4[kz]);
-            [px - self.s4[0] * pz, py - self.s4[1] * pz, self.s4[2] * pz]
-        };
-        let [a, b, c] = [sheared(&leaf.v[0]), sheared(&leaf.v[1]), sheared(&leaf.v[2])];
-        let u = c[0] * b[1] - c[1] * b[0];
-        let vv = a[0] * c[1] - a[1] * c[0];
-        let w = b[0] * a[1] - b[1] * a[0];
+        let shear4 = |v: &[Vec4; 3]| shear(v, &self.origin4, self.k, &self.s4);
+        let (a, b, c) = (shear4(&leaf.v[0]), shear4(&leaf.v[1]), shear4(&leaf.v[2]));
+        let [u, vv, w] = edge_functions(&a, &b, &c);
         let zero = Vec4::ZERO;
         let on_edge = u.cmpeq(zero) | vv.cmpeq(zero) | w.cmpeq(zero);
         let outside = (u.cmplt(zero) | vv.cmplt(zero) | w.cmplt(zero))
@@ -542,28 +538,17 @@ impl WatertightRay {
     /// `0 < t <= t_max`.
     #[inline]
     fn intersect(&self, v: &[Vec3; 3], t_max: f32) -> Option<(f32, f32, f32)> {
-        let [kx, ky, kz] = self.k;
-        let sheared = |v: Vec3| {
-            let (px, py, pz) = (v[kx] - self.origin[kx], v[ky] - self.origin[ky], v[kz] - self.origin[kz]);
-            Vec3::new(px - self.s[0] * pz, py - self.s[1] * pz, self.s[2] * pz)
-        };
-        let (a, b, c) = (sheared(v[0]), sheared(v[1]), sheared(v[2]));
-        // Edge functions: U weights vertex 0, V vertex 1, W vertex 2.
-        let mut u = c.x * b.y - c.y * b.x;
-        let mut vv = a.x * c.y - a.y * c.x;
-        let mut w = b.x * a.y - b.y * a.x;
+        let [a, b, c] = v.map(|v| shear(&v.to_array(), &self.origin, self.k, &self.s));
+        let [mut u, mut vv, mut w] = edge_functions(&a, &b, &c);
         // Exactly on an edge in single precision: decide in double.
         if u == 0.0 || vv == 0.0 || w == 0.0 {
-            let (ax, ay, bx, by, cx, cy) =
-                (a.x as f64, a.y as f64, b.x as f64, b.y as f64, c.x as f64, c.y as f64);
-            u = (cx * by - cy * bx) as f32;
-            vv = (ax * cy - ay * cx) as f32;
-            w = (bx * ay - by * ax) as f32;
+            let wide = |p: [f32; 3]| p.map(f64::from);
+            [u, vv, w] = edge_functions(&wide(a), &wide(b), &wide(c)).map(|e| e as f32);
         }
         if (u < 0.0 || vv < 0.0 || w < 0.0) && (u > 0.0 || vv > 0.0 || w > 0.0) {
             return None;
         }
-        Self::distance(u, vv, w, [a.z, b.z, c.z], t_max)
+        Self::distance(u, vv, w, [a[2], b[2], c[2]], t_max)
     }
 
     /// The end of the test, for a ray inside (or on) all three edges: the
@@ -584,6 +569,29 @@ impl WatertightRay {
         let inv = 1.0 / det;
         Some((t_scaled * inv, vv * inv, w * inv))
     }
+}
+
+/// A vertex `p` relative to the ray's `origin`, sheared so that the ray runs
+/// along +z: `(p[kx] - sx p[kz], p[ky] - sy p[kz], sz p[kz])` with `k` the
+/// axes and `s` the shear. For one vertex (`f32`) or four at once (`Vec4`),
+/// by the same operations in the same order.
+#[inline(always)]
+fn shear<T: Copy + Sub<Output = T> + Mul<Output = T>>(
+    p: &[T; 3],
+    origin: &[T; 3],
+    k: [usize; 3],
+    s: &[T; 3],
+) -> [T; 3] {
+    let [kx, ky, kz] = k;
+    let (px, py, pz) = (p[kx] - origin[kx], p[ky] - origin[ky], p[kz] - origin[kz]);
+    [px - s[0] * pz, py - s[1] * pz, s[2] * pz]
+}
+
+/// The edge functions of sheared vertices `a`, `b`, `c` in 2D: U weights
+/// vertex 0, V vertex 1, W vertex 2 (in `f32`, `f64` or four lanes).
+#[inline(always)]
+fn edge_functions<T: Copy + Sub<Output = T> + Mul<Output = T>>(a: &[T; 3], b: &[T; 3], c: &[T; 3]) -> [T; 3] {
+    [c[0] * b[1] - c[1] * b[0], a[0] * c[1] - a[1] * c[0], b[0] * a[1] - b[1] * a[0]]
 }
 
 /// A box in SIMD lanes, for the build's many unions.
