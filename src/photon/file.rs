@@ -26,7 +26,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::guide::{GatherGuide, CELLS};
-use super::map::{IrradianceRecord, Photon, PhotonMap, Precomputed};
+use super::map::{IrradianceRecord, Photon, PhotonMap};
 use super::{PhotonMaps, PhotonStats};
 use crate::config::RenderConfig;
 use crate::error::{Error, Result};
@@ -350,11 +350,10 @@ impl Reader<'_> {
                 Some(records)
             }
         };
-        let mut map = PhotonMap::new(photons);
-        if let Some(records) = precomputed {
-            map.set_precomputed(Precomputed::new(records));
-        }
-        Ok(Some(map))
+        Ok(Some(match precomputed {
+            Some(records) => PhotonMap::with_records(photons, records),
+            None => PhotonMap::new(photons),
+        }))
     }
 
     fn guide(&mut self) -> std::result::Result<GatherGuide, Failure> {

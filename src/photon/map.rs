@@ -1,6 +1,12 @@
 //! A photon map: photons in a kd-tree (kiddo, the Rust counterpart of the
 //! nanoflann tree the seed report used) and the radiance estimate of Jensen's
 //! "A practical guide to global illumination using photon maps" (2000).
+//!
+//! A map built for final gathering answers its gather rays from irradiance
+//! precomputed at some of its photons, which range searches over runs of the
+//! photons find (`runs.rs`); it keeps those runs for its rare full estimates
+//! (where no record covers a point) instead of also building a kd-tree that
+//! would answer a few hundred searches a render.
 
 use std::num::NonZero;
 
@@ -10,6 +16,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use super::guide::GatherGuide;
 use super::nearest::{Found, PointTree};
 use super::precompute::{precompute, record_in};
+use super::runs::Runs;
 pub use crate::config::Estimate;
 use crate::material::Material;
 
@@ -51,6 +58,27 @@ impl Photon {
     pub(crate) fn on_floor(position: Vec3) -> Photon {
         Photon { position, incoming: Vec3::Y, power: Vec3::ONE, normal: Vec3::Y, indirect: false }
     }
+
+    /// `n` photons [`on_floor`](Photon::on_floor) over the unit square: the
+    /// even ones on a lattice of `side` by `side` points (many at exactly
+    /// equal distances, some twice at one point), the odd ones at random in
+    /// a slab 0.05 thick.
+    pub(crate) fn on_lattice_and_scattered(
+        n: usize,
+        side: usize,
+        rng: &mut crate::sampling::Rng,
+    ) -> Vec<Photon> {
+        let spacing = 1.0 / side as f32;
+        (0..n)
+            .map(|i| {
+                Photon::on_floor(if i % 2 == 0 {
+                    Vec3::new((i % side) as f32 * spacing, 0.0, (i / side % side) as f32 * spacing)
+                } else {
+                    Vec3::new(rng.uniform(), rng.uniform() * 0.05, rng.uniform())
+                })
+            })
+            .collect()
+    }
 }
 
 /// Whether light that landed at `at` on a surface whose unit normal there
@@ -64,10 +92,20 @@ pub fn lands_near(at: Vec3, normal: Vec3, p: Vec3, n: Vec3, r: f32) -> bool {
 /// Photons in a kd-tree, ready for nearest-neighbour queries.
 pub struct PhotonMap {
     photons: Vec<Photon>,
-    /// `None` when there are no photons.
-    tree: Option<ImmutableKdTree<f32, 3>>,
+    /// What finds the photons near a point.
+    search: Search,
     /// Irradiance precomputed at some photons (see [`PhotonMap::precompute_irradiance`]).
     precomputed: Option<Precomputed>,
+}
+
+/// What finds a map's photons near a point; both find the same photons in
+/// the same order (tests hold them to it).
+enum Search {
+    /// kiddo's kd-tree over the photons (`None` when there are none).
+    KdTree(Option<ImmutableKdTree<f32, 3>>),
+    /// Range searches over runs of the photons, for maps with precomputed
+    /// irradiance, which were built for the precomputation anyway.
+    Runs(Runs),
 }
 
 /// Irradiance estimated ahead of time at a subset of photon positions
@@ -76,8 +114,11 @@ pub(crate) struct Precomputed {
     /// Per chosen photon's position: its normal, irradiance, and the
     /// squared radius of the disc the estimate gathered over (where it holds).
     tree: PointTree<(Vec3, Vec3, f32)>,
-    /// Per record, in the order given: where its indirect light came from.
-    guides: Vec<Option<GatherGuide>>,
+    /// Per record, in the order given: where its indirect light came from;
+    /// in the blocks the records were made in, all of `block` records but
+    /// the last (flattening them copied 75 MB at 1M photons, serially).
+    guides: Vec<Vec<Option<GatherGuide>>>,
+    block: usize,
 }
 
 /// Irradiance estimated ahead at one photon's position.
@@ -99,19 +140,36 @@ impl Precomputed {
         Precomputed::from_runs(vec![records])
     }
 
-    /// [`Precomputed::new`] from records made in runs, in the order given
-    /// (flattened here, once: the records are large, a gather guide each).
+    /// [`Precomputed::new`] from records made in runs, in the order given,
+    /// all runs as long as the first but the last (a gather guide each:
+    /// the guides stay in their runs, each taken apart in parallel).
     pub(super) fn from_runs(runs: Vec<Vec<IrradianceRecord>>) -> Precomputed {
-        let count = runs.iter().map(Vec::len).sum();
-        let mut positions = Vec::with_capacity(count);
-        let mut values = Vec::with_capacity(count);
-        let mut guides = Vec::with_capacity(count);
-        for record in runs.into_iter().flatten() {
-            positions.push(record.position);
-            values.push((record.normal, record.irradiance, record.radius2));
-            guides.push(record.guide);
-        }
-        Precomputed { tree: PointTree::new(&positions, &values), guides }
+        use rayon::prelude::*;
+        let block = runs.first().map_or(0, Vec::len).max(1);
+        assert!(runs.iter().rev().skip(1).all(|run| run.len() == block), "runs of equal length but the last");
+        type Parts = (Vec<Vec3>, Vec<(Vec3, Vec3, f32)>, Vec<Option<GatherGuide>>);
+        let parts: Vec<Parts> = runs
+            .into_par_iter()
+            .map(|run| {
+                let mut parts: Parts = Default::default();
+                for record in run {
+                    parts.0.push(record.position);
+                    parts.1.push((record.normal, record.irradiance, record.radius2));
+                    parts.2.push(record.guide);
+                }
+                parts
+            })
+            .collect();
+        let positions: Vec<Vec3> = parts.iter().flat_map(|part| part.0.iter().copied()).collect();
+        let values: Vec<_> = parts.iter().flat_map(|part| part.1.iter().copied()).collect();
+        let guides = parts.into_iter().map(|part| part.2).collect();
+        Precomputed { tree: PointTree::new(&positions, &values), guides, block }
+    }
+
+    /// The gather guide of record `index` (in the order given), if it has one.
+    fn guide(&self, index: u32) -> Option<&GatherGuide> {
+        let index = index as usize;
+        self.guides[index / self.block][index % self.block].as_ref()
     }
 
     /// The record nearest `p` on a surface facing the same way as `n` whose
@@ -145,24 +203,42 @@ impl PhotonMap {
     /// Panics beyond 2^32 photons (the settings cap photon counts far below).
     pub fn new(photons: Vec<Photon>) -> PhotonMap {
         let photons = in_morton_order(photons);
-        PhotonMap { tree: kd_tree(&photons), photons, precomputed: None }
+        PhotonMap { search: Search::KdTree(kd_tree(&photons)), photons, precomputed: None }
     }
 
-    /// [`PhotonMap::new`], then [`PhotonMap::precompute_irradiance`] (the
-    /// same map), with the kd-tree built while the irradiance is
-    /// precomputed: the precomputation needs only the photons in their
-    /// order, and kiddo's build keeps both cores busy only part of the time.
+    /// A map for final gathering: [`PhotonMap::new`], then
+    /// [`PhotonMap::precompute_irradiance`], but searched by the runs the
+    /// precomputation builds rather than a kd-tree (the same answers; kiddo's
+    /// build was a tenth of the teapot's at 1M photons, BENCHMARKS.md).
     pub fn with_irradiance(photons: Vec<Photon>, stride: usize, estimate: &Estimate) -> PhotonMap {
         let photons = in_morton_order(photons);
-        let (tree, precomputed) =
-            rayon::join(|| kd_tree(&photons), || precompute(&photons, stride, estimate));
-        PhotonMap { photons, tree, precomputed }
+        let runs = Runs::new(&photons);
+        let precomputed = precompute(&photons, &runs, stride, estimate);
+        PhotonMap { photons, search: Search::Runs(runs), precomputed }
+    }
+
+    /// A map for final gathering from its photons in the map's order (as
+    /// [`PhotonMap::photons`] gives them) and its precomputed irradiance
+    /// records (a saved map's).
+    pub(crate) fn with_records(photons: Vec<Photon>, records: Vec<IrradianceRecord>) -> PhotonMap {
+        // Photons already in Morton order stay in it.
+        let photons = in_morton_order(photons);
+        let runs = Runs::new(&photons);
+        PhotonMap { photons, search: Search::Runs(runs), precomputed: Some(Precomputed::new(records)) }
     }
 
     /// Estimates irradiance at every `stride`-th photon (in parallel) and
     /// keeps it for [`PhotonMap::precomputed_radiance`] (see `precompute.rs`).
     pub fn precompute_irradiance(&mut self, stride: usize, estimate: &Estimate) {
-        if let Some(precomputed) = precompute(&self.photons, stride, estimate) {
+        let built;
+        let runs = match &self.search {
+            Search::Runs(runs) => runs,
+            Search::KdTree(_) => {
+                built = Runs::new(&self.photons);
+                &built
+            }
+        };
+        if let Some(precomputed) = precompute(&self.photons, runs, stride, estimate) {
             self.precomputed = Some(precomputed);
         }
     }
@@ -174,7 +250,7 @@ impl PhotonMap {
         let points = pre.tree.in_given_order().into_iter();
         Some(
             points
-                .zip(&pre.guides)
+                .zip(pre.guides.iter().flatten())
                 .map(|((position, (normal, irradiance, radius2)), guide)| IrradianceRecord {
                     position,
                     normal,
@@ -189,11 +265,6 @@ impl PhotonMap {
     /// Whether irradiance was precomputed (for final gathering).
     pub(crate) fn has_precomputed(&self) -> bool {
         self.precomputed.is_some()
-    }
-
-    /// Sets the precomputed irradiance (of a loaded map).
-    pub(crate) fn set_precomputed(&mut self, precomputed: Precomputed) {
-        self.precomputed = Some(precomputed);
     }
 
     /// Radiance leaving `p` (normal `n`) by the diffuse part of `material`,
@@ -216,7 +287,7 @@ impl PhotonMap {
     pub fn gather_guide(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> Option<&GatherGuide> {
         let pre = self.precomputed.as_ref()?;
         let found = pre.covering(p, n, estimate.max_radius)?;
-        pre.guides[found.index as usize].as_ref()
+        pre.guide(found.index)
     }
 
     /// The stored photons.
@@ -227,7 +298,11 @@ impl PhotonMap {
     /// The indices of up to `k` photons nearest `p` within `max_radius`,
     /// with their squared distances, nearest first.
     pub fn nearest(&self, p: Vec3, k: usize, max_radius: f32) -> Vec<(f32, usize)> {
-        let (Some(k), Some(tree)) = (NonZero::new(k), &self.tree) else { return Vec::new() };
+        let tree = match &self.search {
+            Search::KdTree(tree) => tree,
+            Search::Runs(runs) => return runs.nearest(p, k, max_radius),
+        };
+        let (Some(k), Some(tree)) = (NonZero::new(k), tree) else { return Vec::new() };
         tree.query(&p.to_array())
             .nearest_n::<SquaredEuclidean<f32>>(k)
             .within(max_radius * max_radius)
@@ -428,6 +503,46 @@ mod tests {
     }
 
     #[test]
+    fn kiddo_and_the_runs_find_the_same_nearest_photons() {
+        // A map for final gathering searches its runs, other maps kiddo's
+        // tree: the same photons either way, nearest first. Among photons at
+        // exactly the same distance the runs give the smaller index first,
+        // kiddo an order of its own, and where such a tie straddles the k-th
+        // place the two may keep different ones. Half the photons on a
+        // lattice, half random; caps from none found to all.
+        let mut rng = Rng::new(9, 4);
+        let photons = Photon::on_lattice_and_scattered(6000, 50, &mut rng);
+        let tree = PhotonMap::new(photons.clone());
+        let runs =
+            PhotonMap::with_irradiance(photons, 12, &Estimate { k: 50, max_radius: 0.2, cone_filter: None });
+        assert!(matches!(tree.search, Search::KdTree(_)) && matches!(runs.search, Search::Runs(_)));
+        assert_eq!(tree.photons(), runs.photons());
+        for j in 0..200 {
+            let q = if j % 4 == 0 {
+                runs.photons()[j * 7].position
+            } else {
+                Vec3::new(rng.uniform(), rng.uniform() * 0.1, rng.uniform())
+            };
+            for (k, max_radius) in [(1, 0.2), (20, 0.2), (100, 0.2), (100, 0.01), (100, 0.0), (7000, 10.0)] {
+                let (mut by_tree, by_runs) = (tree.nearest(q, k, max_radius), runs.nearest(q, k, max_radius));
+                let order = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+                assert!(
+                    by_runs.is_sorted_by(|a, b| order(a, b).is_lt()),
+                    "{q} k {k}: nearest first, ties by index"
+                );
+                let distances = |found: &[(f32, usize)]| found.iter().map(|f| f.0).collect::<Vec<_>>();
+                assert_eq!(distances(&by_tree), distances(&by_runs), "{q} k {k} cap {max_radius}");
+                // Those nearer than the last place: the same photons.
+                by_tree.sort_by(order);
+                let last = by_runs.last().map_or(0.0, |f| f.0);
+                let inside =
+                    |found: &[(f32, usize)]| found.iter().filter(|f| f.0 < last).copied().collect::<Vec<_>>();
+                assert_eq!(inside(&by_tree), inside(&by_runs), "{q} k {k} cap {max_radius}");
+            }
+        }
+    }
+
+    #[test]
     fn the_map_and_its_records_do_not_depend_on_the_threads() {
         // Enough photons that kiddo builds in parallel, and records for
         // many chunks of the precomputation; on three walls of a box.
@@ -462,12 +577,12 @@ mod tests {
         let records = one.precomputed_records().unwrap();
         assert_eq!(records.len(), 25_000);
         assert_eq!(records, two.precomputed_records().unwrap());
-        // The kd-tree built beside the precomputation: the same map.
+        // Built for final gathering, searched by its runs: the same map.
         let beside =
             PhotonMap::with_irradiance(photons, 12, &Estimate { k: 100, max_radius: 0.2, cone_filter: None });
         assert_eq!(beside.photons(), one.photons());
         assert_eq!(beside.precomputed_records().unwrap(), records);
-        // And the trees answer alike.
+        // And the searches answer alike.
         let q = Vec3::new(0.3, 0.0, 0.6);
         assert_eq!(one.nearest(q, 50, 0.2), two.nearest(q, 50, 0.2));
         assert_eq!(beside.nearest(q, 50, 0.2), one.nearest(q, 50, 0.2));

@@ -90,19 +90,12 @@ pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagon
     let has_light = scene.lights.iter().any(|l| l.power().max_element() > 0.0);
     let for_gathering = settings.gather_rays > 0;
 
-    // Traces a map's photons and builds it, with irradiance precomputed
-    // every `stride`-th photon if given.
-    let run = |pass: Pass, count: u32, stride: Option<usize>, stats: &mut PhotonStats| {
+    // Traces a map's photons.
+    let traced = |pass: Pass, count: u32, stats: &mut PhotonStats| {
         let start = Instant::now();
         let photons = trace(query, pass, count, settings.max_bounces, seed);
         stats.trace_seconds += start.elapsed().as_secs_f64();
-        let start = Instant::now();
-        let map = match stride {
-            Some(stride) => PhotonMap::with_irradiance(photons, stride, &settings.global_estimate(diagonal)),
-            None => PhotonMap::new(photons),
-        };
-        stats.build_seconds += start.elapsed().as_secs_f64();
-        map
+        photons
     };
 
     let global = if !has_light {
@@ -116,14 +109,7 @@ pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagon
         None
     } else {
         stats.global_emitted = settings.global_photons as u64;
-        // Gather rays only need irradiance: estimate it ahead at about 8
-        // photons per gathering disc of `global_k`, every 12th photon by
-        // default. Christensen's every 4th put 25 in each disc and made
-        // building 2.5x slower for 0.4-0.9% less error (BENCHMARKS.md).
-        let stride = for_gathering.then(|| (settings.global_k as usize / 8).max(4));
-        let map =
-            run(Pass::Global { keep_direct: for_gathering }, settings.global_photons, stride, &mut stats);
-        Some(map)
+        Some(traced(Pass::Global { keep_direct: for_gathering }, settings.global_photons, &mut stats))
     };
     let caustic = if !has_light || !has_diffuse {
         stats.skipped.push("caustic map skipped: nothing for it to light".into());
@@ -136,8 +122,28 @@ pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagon
         None
     } else {
         stats.caustic_emitted = settings.caustic_photons as u64;
-        Some(run(Pass::Caustic, settings.caustic_photons, None, &mut stats))
+        Some(traced(Pass::Caustic, settings.caustic_photons, &mut stats))
     };
+
+    // Both maps are built at once: neither build keeps both cores busy all
+    // the time. Gather rays only need irradiance: estimate it ahead at about
+    // 8 photons per gathering disc of `global_k`, every 12th photon by
+    // default. Christensen's every 4th put 25 in each disc and made building
+    // 2.5x slower for 0.4-0.9% less error (BENCHMARKS.md).
+    let start = Instant::now();
+    let (global, caustic) = rayon::join(
+        || {
+            global.map(|photons| match for_gathering {
+                true => {
+                    let stride = (settings.global_k as usize / 8).max(4);
+                    PhotonMap::with_irradiance(photons, stride, &settings.global_estimate(diagonal))
+                }
+                false => PhotonMap::new(photons),
+            })
+        },
+        || caustic.map(PhotonMap::new),
+    );
+    stats.build_seconds = start.elapsed().as_secs_f64();
     PhotonMaps { global, caustic, for_gathering, stats }
 }
 

@@ -90,13 +90,16 @@ impl<const K: usize> Nearest<K> {
 
 impl<T: Copy> PointTree<T> {
     /// Builds the tree over `points` with their `values` (as many; fewer
-    /// than 2^32), serially: it depends only on the points and their order.
+    /// than 2^32), its halves in parallel: it depends only on the points and
+    /// their order.
     pub fn new(points: &[Vec3], values: &[T]) -> PointTree<T> {
         assert_eq!(points.len(), values.len(), "a value per point");
         assert!(points.len() < u32::MAX as usize, "fewer than 2^32 points");
-        let mut entries: Vec<(Vec3, u32)> = points.iter().zip(0..).map(|(&p, i)| (p, i)).collect();
+        let mut entries: Vec<Entry> = points.iter().zip(0..).map(|(&p, i)| (p, i)).collect();
         let mut splits = vec![(0.0, 0); inner_nodes(points.len())];
-        split(&mut entries, 0, &mut splits);
+        for (node, split) in split(&mut entries, 0) {
+            splits[node] = split;
+        }
         PointTree {
             points: entries.iter().map(|e| e.0).collect(),
             values: entries.iter().map(|e| values[e.1 as usize]).collect(),
@@ -186,14 +189,45 @@ fn inner_nodes(n: usize) -> usize {
     largest(0, n)
 }
 
+/// A point with its index in the order given, as the build moves them.
+type Entry = (Vec3, u32);
+
+/// Points from which a subtree's two halves are built in parallel.
+const PARALLEL_FROM: usize = 4096;
+
 /// Splits `entries` (points with their index) at the median of their
-/// widest axis, ties by index, recording the split at `node`, and recurses
-/// into both halves. The points move with their index (no indirection), so
-/// the median selection reads contiguous memory.
-fn split(entries: &mut [(Vec3, u32)], node: usize, splits: &mut [(f32, u8)]) {
+/// widest axis, ties by index, and recurses into both halves (in parallel
+/// when large); returns every split made, with its node. The points move
+/// with their index (no indirection), so the median selection reads
+/// contiguous memory.
+fn split(entries: &mut [Entry], node: usize) -> Vec<(usize, (f32, u8))> {
+    let mut splits = Vec::new();
+    if entries.len() >= PARALLEL_FROM {
+        let (here, left, right) = split_once(entries);
+        let (left, right) = rayon::join(|| split(left, 2 * node + 1), || split(right, 2 * node + 2));
+        splits.push((node, here));
+        splits.extend(left);
+        splits.extend(right);
+    } else {
+        split_serially(entries, node, &mut splits);
+    }
+    splits
+}
+
+/// [`split`] on one thread, the splits pushed onto `splits`.
+fn split_serially(entries: &mut [Entry], node: usize, splits: &mut Vec<(usize, (f32, u8))>) {
     if entries.len() <= LEAF {
         return;
     }
+    let (here, left, right) = split_once(entries);
+    splits.push((node, here));
+    split_serially(left, 2 * node + 1, splits);
+    split_serially(right, 2 * node + 2, splits);
+}
+
+/// Splits `entries` (more than [`LEAF`]) at the median of their widest
+/// axis, ties by index: the split (value and axis) and the two halves.
+fn split_once(entries: &mut [Entry]) -> ((f32, u8), &mut [Entry], &mut [Entry]) {
     let (lo, hi) =
         entries.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), e| (lo.min(e.0), hi.max(e.0)));
     let extent = hi - lo;
@@ -206,10 +240,9 @@ fn split(entries: &mut [(Vec3, u32)], node: usize, splits: &mut [(f32, u8)]) {
     };
     let mid = entries.len() / 2;
     entries.select_nth_unstable_by(mid, |a, b| a.0[axis].total_cmp(&b.0[axis]).then(a.1.cmp(&b.1)));
-    splits[node] = (entries[mid].0[axis], axis as u8);
+    let here = (entries[mid].0[axis], axis as u8);
     let (left, right) = entries.split_at_mut(mid);
-    split(left, 2 * node + 1, splits);
-    split(right, 2 * node + 2, splits);
+    (here, left, right)
 }
 
 #[cfg(test)]
@@ -231,9 +264,23 @@ mod tests {
     }
 
     #[test]
+    fn the_tree_does_not_depend_on_the_threads() {
+        let mut rng = Rng::new(6, 2);
+        let points: Vec<Vec3> = (0..50_000).map(|_| Vec3::new(rng.uniform(), 0.0, rng.uniform())).collect();
+        let build = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| PointTree::new(&points, &points))
+        };
+        let (one, two) = (build(1), build(2));
+        assert_eq!((&one.points, &one.items, &one.values), (&two.points, &two.items, &two.values));
+        assert_eq!(one.splits, two.splits);
+    }
+
+    #[test]
     fn finds_what_brute_force_finds() {
         let mut rng = Rng::new(5, 1);
-        for n in [0usize, 1, 7, 8, 9, 17, 100, 3000] {
+        // (From 4096 points the halves are built in parallel.)
+        for n in [0usize, 1, 7, 8, 9, 17, 100, 3000, 10_000] {
             // Points on the faces of a box, many sharing a coordinate exactly
             // (as photons on a floor do), and some exact duplicates.
             let mut points: Vec<Vec3> = (0..n)

@@ -45,13 +45,17 @@ struct Search {
 /// starting from the radius the one before needed (see [`nearest_from`]).
 /// The records are made in fixed chunks of the curve, each in order from
 /// its start, so they do not depend on how many threads share the chunks.
-pub(super) fn precompute(photons: &[Photon], stride: usize, estimate: &Estimate) -> Option<Precomputed> {
+pub(super) fn precompute(
+    photons: &[Photon],
+    runs: &Runs,
+    stride: usize,
+    estimate: &Estimate,
+) -> Option<Precomputed> {
     let stride = stride.max(1);
     let chosen: Vec<(usize, &Photon)> = photons.iter().enumerate().step_by(stride).collect();
     if chosen.is_empty() {
         return None;
     }
-    let runs = Runs::new(photons);
     let records: Vec<Vec<IrradianceRecord>> = chosen
         .par_chunks(PRECOMPUTE_CHUNK)
         .map(|chunk| {
@@ -60,7 +64,7 @@ pub(super) fn precompute(photons: &[Photon], stride: usize, estimate: &Estimate)
                 .iter()
                 .map(|&(index, photon)| {
                     let (p, n) = (photon.position, photon.normal);
-                    nearest_from(&runs, p, index, estimate.k, estimate.max_radius, &mut search);
+                    nearest_from(runs, p, index, estimate.k, estimate.max_radius, &mut search);
                     let radius2 = close_disc(&mut search.found, estimate);
                     record_in(photons, p, n, radius2, &search.found)
                 })
@@ -120,7 +124,7 @@ fn nearest_from(runs: &Runs, p: Vec3, near: usize, k: usize, max_radius: f32, se
     let start = if search.radius2 > 0.0 { search.radius2 } else { runs.start_radius2(near, k) };
     // (Written so that a NaN or zero guess starts from the cap.)
     let start = if start > 0.0 { start.min(max_r2) } else { max_r2 };
-    nearest_in_runs(runs, p, k, start, max_r2, search);
+    runs.holding_k(p, k, start, max_r2, &mut search.keys);
     // The k nearest, the k-th last; ties broken by index, as the keys
     // order. (Not sorted: sorting them cost a fifth of the precomputation.)
     if search.keys.len() >= k {
@@ -137,26 +141,6 @@ fn nearest_from(runs: &Runs, p: Vec3, near: usize, k: usize, max_radius: f32, se
     }
 }
 
-/// The photons within a sphere around `p` that holds its `k` nearest
-/// (or reaches `max_r2`), into `search.keys`, by range searches whose
-/// squared radius starts at `r2` and grows.
-fn nearest_in_runs(runs: &Runs, p: Vec3, k: usize, mut r2: f32, max_r2: f32, search: &mut Search) {
-    loop {
-        search.keys.clear();
-        runs.within(p, r2, &mut search.keys);
-        let found = search.keys.len();
-        // (Written so that a NaN radius ends the loop too.)
-        let reached_cap = r2.partial_cmp(&max_r2) != Some(std::cmp::Ordering::Less);
-        if found >= k || reached_cap {
-            break;
-        }
-        // Too few: on a surface the count grows with the area, so aim a
-        // little past `k` photons, at least doubling the area.
-        let wanted = (k as f32 * 1.25) / found.max(1) as f32;
-        r2 = (r2 * wanted.clamp(2.0, 16.0)).min(max_r2);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -170,15 +154,7 @@ mod tests {
         // too large radii, with and without a radius cap, must all find
         // exactly the brute force's k nearest, ties broken by index.
         let mut rng = Rng::new(5, 6);
-        let photons: Vec<Photon> = (0..4000)
-            .map(|i| {
-                Photon::on_floor(if i % 2 == 0 {
-                    Vec3::new((i % 40) as f32 * 0.025, 0.0, (i / 40 % 40) as f32 * 0.025)
-                } else {
-                    Vec3::new(rng.uniform(), rng.uniform() * 0.05, rng.uniform())
-                })
-            })
-            .collect();
+        let photons = Photon::on_lattice_and_scattered(4000, 40, &mut rng);
         let map = PhotonMap::new(photons);
         let runs = Runs::new(map.photons());
         for _ in 0..40 {

@@ -86,6 +86,46 @@ impl Runs {
         }
     }
 
+    /// The positions within a sphere around `q` that holds its `k` nearest
+    /// (or reaches `max_r2`), into `found` as [`within`](Runs::within) gives
+    /// them, by range searches whose squared radius starts at `r2` and grows.
+    pub(super) fn holding_k(&self, q: Vec3, k: usize, mut r2: f32, max_r2: f32, found: &mut Vec<u64>) {
+        loop {
+            found.clear();
+            self.within(q, r2, found);
+            let count = found.len();
+            // (Written so that a NaN radius ends the loop too.)
+            let reached_cap = r2.partial_cmp(&max_r2) != Some(std::cmp::Ordering::Less);
+            if count >= k || reached_cap {
+                break;
+            }
+            // Too few: on a surface the count grows with the area, so aim a
+            // little past `k` positions, at least doubling the area.
+            let wanted = (k as f32 * 1.25) / count.max(1) as f32;
+            r2 = (r2 * wanted.clamp(2.0, 16.0)).min(max_r2);
+        }
+    }
+
+    /// The up to `k` positions nearest `q` within `max_radius`, as
+    /// (squared distance, index), nearest first, ties to the smaller index:
+    /// what a k-nearest search of a kd-tree over the same positions finds.
+    /// The first range search reaches a sixteenth of `max_radius` squared,
+    /// whatever was asked before, so answers depend on the query alone.
+    pub(super) fn nearest(&self, q: Vec3, k: usize, max_radius: f32) -> Vec<(f32, usize)> {
+        if k == 0 {
+            return Vec::new();
+        }
+        let max_r2 = max_radius * max_radius;
+        let mut keys = Vec::new();
+        self.holding_k(q, k, max_r2 / 16.0, max_r2, &mut keys);
+        if keys.len() > k {
+            keys.select_nth_unstable(k - 1);
+            keys.truncate(k);
+        }
+        keys.sort_unstable();
+        keys.into_iter().map(unkey).collect()
+    }
+
     fn visit(&self, level: usize, node: usize, q: Vec3, r2: f32, found: &mut Vec<u64>) {
         let b = &self.levels[level][node];
         // The gap from `q` to the box (a NaN radius reaches nothing).
