@@ -2,8 +2,8 @@
 //! camera samples for the path tracer, Whitted and photon mapping, passes for
 //! SPPM. What is asserted is what does not depend on this machine's speed:
 //! the image of `N` samples taken in rounds is the plain render of `N`
-//! samples (the rounds continue the same sample sequence), and bad budgets
-//! are refused. How error falls with the budget is in BENCHMARKS.md.
+//! samples (the rounds continue the same sample sequence; the rows of a last
+//! partial round, that of `N + 1`), and bad budgets are refused. How error falls with the budget is in BENCHMARKS.md.
 
 mod common;
 
@@ -54,15 +54,37 @@ fn samples_taken_in_rounds_make_the_plain_render_of_as_many_samples() {
         if piloted {
             plain.photons.gather_rays = chosen_gather_rays(&timed.stats.notes);
         }
+        // The time left after the last whole round went to one more sample
+        // in a band of rows across the middle, if it afforded a row.
+        let band = last_band(&timed.stats.notes, config.height);
+        let one_more = RenderConfig { samples: n + 1, ..plain.clone() };
         let plain = caustix::render(&scene, accel.as_ref(), &plain, &|_| {}).unwrap();
-        for (i, (a, b)) in timed.film.pixels.iter().zip(&plain.film.pixels).enumerate() {
-            let (a, b) = (a.total(), b.total());
+        let one_more = caustix::render(&scene, accel.as_ref(), &one_more, &|_| {}).unwrap();
+        for (i, (a, (b, c))) in
+            timed.film.pixels.iter().zip(plain.film.pixels.iter().zip(&one_more.film.pixels)).enumerate()
+        {
+            let in_band = band.contains(&(i as u32 / config.width));
+            let (a, b, taken) =
+                (a.total(), if in_band { c.total() } else { b.total() }, n + u32::from(in_band));
             assert!(
                 (a - b).abs().max_element() <= 1e-4 * b.max_element().max(1e-3),
-                "{integrator:?}, {n} samples: pixel {i} is {a} in rounds, {b} plainly"
+                "{integrator:?}, {taken} samples: pixel {i} is {a} in rounds, {b} plainly"
             );
         }
     }
+}
+
+/// The rows of the band that took one more sample, from a render's summary
+/// notes ("... and one more in R of H rows": the R rows in the middle of
+/// H), empty if none did.
+fn last_band(notes: &[String], height: u32) -> std::ops::Range<u32> {
+    let Some(rest) = notes.iter().find_map(|l| l.split_once("and one more in ").map(|(_, rest)| rest)) else {
+        return 0..0;
+    };
+    let rows: u32 = rest.split(' ').next().unwrap().parse().unwrap();
+    assert!(rest.ends_with(&format!("of {height} rows")), "{rest}");
+    let y0 = (height - rows) / 2;
+    y0..y0 + rows
 }
 
 /// The gather rays per camera sample a photon-mapped render to a time
