@@ -10,6 +10,7 @@ pub mod path;
 pub mod photon;
 pub mod pixels;
 pub mod preview;
+mod rounds;
 pub mod sppm;
 pub mod vcm;
 pub mod whitted;
@@ -17,7 +18,7 @@ pub mod whitted;
 use std::time::{Duration, Instant};
 
 use crate::accel::Intersector;
-use crate::config::{IntegratorKind, Region, RenderConfig};
+use crate::config::{IntegratorKind, RenderConfig};
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::photon::PhotonMaps;
@@ -49,6 +50,9 @@ pub struct Context<'a> {
     /// The camera samples of each pixel this pass takes: all of them, or
     /// one round of a render to a time budget.
     pub samples: SampleRange,
+    /// Instead of `samples`, each pixel's own (of the region, row by row):
+    /// a round of a render to a time budget that follows the noise.
+    pub pixel_samples: Option<&'a [SampleRange]>,
     /// Where the images so far of a render to a time budget go, if anywhere.
     pub snapshot: Option<&'a Snapshot<'a>>,
 }
@@ -73,6 +77,7 @@ impl<'a> Context<'a> {
             diagonal: Context::diagonal_of(scene),
             photon_maps: None,
             samples: SampleRange { first: 0, count: config.samples },
+            pixel_samples: None,
             snapshot: None,
         }
     }
@@ -86,6 +91,17 @@ impl<'a> Context<'a> {
     /// The scene.
     pub fn scene(&self) -> &'a Scene {
         self.query.scene
+    }
+
+    /// The camera samples this pass takes at pixel `(x, y)` of the region.
+    pub fn samples_at(&self, x: u32, y: u32) -> SampleRange {
+        match self.pixel_samples {
+            None => self.samples,
+            Some(each) => {
+                let r = self.config.region();
+                each[(y - r.y0) as usize * r.width() as usize + (x - r.x0) as usize]
+            }
+        }
     }
 }
 
@@ -150,8 +166,12 @@ pub struct RenderStats {
     pub rays: RayCount,
     /// Lines worth telling the user (what photon maps were built or skipped).
     pub notes: Vec<String>,
-    /// Camera samples per pixel taken (passes for SPPM, one for the previews).
+    /// Camera samples per pixel taken (passes for SPPM, one for the
+    /// previews; on average, for a render to a time budget).
     pub samples_per_pixel: u32,
+    /// For a render to a time budget, the camera samples each pixel of the
+    /// region took, row by row (noisier pixels take more).
+    pub pixel_samples: Option<Vec<u32>>,
 }
 
 /// A finished render.
@@ -167,7 +187,16 @@ impl Rendered {
     /// A render's film with the rays it traced and its notes; [`render`]
     /// times it.
     pub fn new(film: Film, rays: RayCount, notes: Vec<String>) -> Rendered {
-        Rendered { film, stats: RenderStats { elapsed: Duration::ZERO, rays, notes, samples_per_pixel: 0 } }
+        Rendered {
+            film,
+            stats: RenderStats {
+                elapsed: Duration::ZERO,
+                rays,
+                notes,
+                samples_per_pixel: 0,
+                pixel_samples: None,
+            },
+        }
     }
 }
 
@@ -200,9 +229,13 @@ pub fn render_with_maps(
     let integrator = create(config.integrator);
     let ctx = Context { photon_maps: maps, snapshot, ..Context::new(scene, accel, config) };
     let mut rendered = match config.time {
-        Some(seconds) if integrator.refines_by_samples() => {
-            render_to_time(integrator.as_ref(), &ctx, Duration::from_secs_f32(seconds), start, progress)
-        }
+        Some(seconds) if integrator.refines_by_samples() => rounds::render_to_time(
+            integrator.as_ref(),
+            &ctx,
+            Duration::from_secs_f32(seconds),
+            start,
+            progress,
+        ),
         _ => integrator.render(&ctx, progress),
     };
     if rendered.stats.samples_per_pixel == 0 {
@@ -211,133 +244,6 @@ pub fn render_with_maps(
     rendered.stats.elapsed = start.elapsed();
     check_finite(&rendered.film, config)?;
     Ok(rendered)
-}
-
-/// Renders in rounds of camera samples until the time budget (counted from
-/// `start`) would not fit another: one sample per pixel, then as many again
-/// each round (doubling), fewer when the time left affords fewer, by the
-/// last round's time per sample. The time left then, less than a sample per
-/// pixel, goes to one more sample in a band of rows across the middle of the
-/// image, as many rows as it affords (see [`last_band`]). Photon maps are
-/// built once for all rounds. Sample `i` of a pixel draws the same numbers
-/// as in a plain render, so with the Sobol sampler the image equals a plain
-/// render of the samples taken (up to the order of the sums).
-fn render_to_time(
-    integrator: &dyn Integrator,
-    ctx: &Context,
-    budget: Duration,
-    start: Instant,
-    progress: &Progress,
-) -> Rendered {
-    let built = match ctx.photon_maps {
-        Some(_) => None,
-        None => integrator.photon_maps(ctx),
-    };
-    let ctx = Context { photon_maps: ctx.photon_maps.or(built.as_ref()), ..*ctx };
-    let tuned = integrator.tuned_for_time(&ctx);
-    let ctx = match &tuned {
-        Some((config, _)) => Context { config, ..ctx },
-        None => ctx,
-    };
-    let max = crate::config::limits::MAX_SAMPLES;
-    let (mut done, mut batch, mut rounds) = (0u32, 1u32, 0u32);
-    let mut sum: Vec<crate::film::Sample> = Vec::new();
-    let mut first: Option<Rendered> = None;
-    let mut rays = RayCount::default();
-    let mut per_sample;
-    loop {
-        let round_start = Instant::now();
-        let round = Context { samples: SampleRange { first: done, count: batch }, ..ctx };
-        let rendered = integrator.render(&round, progress);
-        per_sample = round_start.elapsed().as_secs_f64() / batch as f64;
-        rays += rendered.stats.rays;
-        if sum.is_empty() {
-            sum = vec![Default::default(); rendered.film.pixels.len()];
-        }
-        for (s, p) in sum.iter_mut().zip(&rendered.film.pixels) {
-            *s += *p * batch as f32;
-        }
-        first.get_or_insert(rendered);
-        done += batch;
-        rounds += 1;
-        let left = budget.as_secs_f64() - start.elapsed().as_secs_f64();
-        let affordable = (left / per_sample.max(1e-9)).floor().min((max - done) as f64) as u32;
-        if affordable == 0 {
-            break;
-        }
-        if let (Some(snapshot), Some(first)) = (ctx.snapshot, &first) {
-            let mut film = first.film.clone();
-            set_average(&mut film, &sum, done);
-            snapshot(&film, done);
-        }
-        batch = done.min(affordable);
-    }
-    let mut rendered = first.expect("at least one round");
-    let mut counts = vec![done; sum.len()];
-    let left = budget.as_secs_f64() - start.elapsed().as_secs_f64();
-    let region = ctx.config.region();
-    let band = (done < max).then(|| last_band(region, left / per_sample)).flatten();
-    if let Some(band) = band {
-        let config = RenderConfig { region: Some(band), ..ctx.config.clone() };
-        let round = Context { config: &config, samples: SampleRange { first: done, count: 1 }, ..ctx };
-        let extra = integrator.render(&round, progress);
-        rays += extra.stats.rays;
-        // The band's rows span the region's width: its pixels are one run of
-        // the region's, from its first row on.
-        let offset = (band.y0 - region.y0) as usize * region.width() as usize;
-        for (i, p) in extra.film.pixels.iter().enumerate() {
-            sum[offset + i] += *p;
-            counts[offset + i] += 1;
-        }
-    }
-    for ((p, s), &count) in rendered.film.pixels.iter_mut().zip(&sum).zip(&counts) {
-        *p = *s * (1.0 / count as f32);
-    }
-    rendered.stats.rays = rays;
-    rendered.stats.samples_per_pixel = done;
-    rendered.stats.notes.push(match band {
-        Some(band) => format!(
-            "time budget {:.1} s: {done} samples per pixel in {rounds} rounds, and one more in {} of {} rows",
-            budget.as_secs_f64(),
-            band.height(),
-            region.height()
-        ),
-        None => {
-            format!("time budget {:.1} s: {done} samples per pixel in {rounds} rounds", budget.as_secs_f64())
-        }
-    });
-    rendered.stats.notes.extend(tuned.map(|(_, note)| note));
-    rendered
-}
-
-/// The share of the time left that [`last_band`] plans to fill: a band's
-/// time per row is that of the whole region's round, which it may exceed
-/// (rows differ), so it aims a little short of the budget.
-const LAST_BAND_SHARE: f64 = 0.9;
-
-/// The band of rows centred in `region` that one more sample per pixel can
-/// cover when the time left is `fraction` of a whole round's (less than 1):
-/// `None` when that is not a row, or is the whole region. The middle,
-/// where a picture's subject usually is; the rows outside keep one sample
-/// fewer, so the image stays unbiased, only their noise is a little higher.
-fn last_band(region: Region, fraction: f64) -> Option<Region> {
-    let height = region.height();
-    let rows = (fraction * LAST_BAND_SHARE * height as f64).floor();
-    // (Written so that a NaN fraction gives none.)
-    if !(1.0..height as f64).contains(&rows) {
-        return None;
-    }
-    let rows = rows as u32;
-    let y0 = region.y0 + (height - rows) / 2;
-    Some(Region { y0, y1: y0 + rows, ..region })
-}
-
-/// Sets `film`'s pixels to the average of `samples` camera samples whose
-/// per-pixel sums are `sum`.
-fn set_average(film: &mut Film, sum: &[crate::film::Sample], samples: u32) {
-    for (p, s) in film.pixels.iter_mut().zip(sum) {
-        *p = *s * (1.0 / samples as f32);
-    }
 }
 
 /// Checks, before any work, that `config` is valid ([`RenderConfig::validate`])
@@ -398,22 +304,4 @@ pub fn work_units(config: &RenderConfig) -> u64 {
 /// progressive photon mapping, one for the previews), for summaries.
 pub fn samples_per_pixel(config: &RenderConfig) -> u32 {
     create(config.integrator).samples_per_pixel(config)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_last_band_is_the_rows_the_time_left_affords_in_the_middle() {
-        let region = Region { x0: 3, y0: 10, x1: 50, y1: 110 };
-        // Half a round's time: 0.9 of half the 100 rows, centred.
-        assert_eq!(last_band(region, 0.5), Some(Region { x0: 3, y0: 37, x1: 50, y1: 82 }));
-        assert_eq!(last_band(region, 0.012), Some(Region { x0: 3, y0: 59, x1: 50, y1: 60 }));
-        // Not a row, the whole region, or no time: none.
-        for fraction in [0.0, 0.01, -1.0, 1.2, f64::NAN, f64::INFINITY] {
-            assert_eq!(last_band(region, fraction), None, "{fraction}");
-        }
-        assert_eq!(last_band(Region { x0: 0, y0: 0, x1: 4, y1: 1 }, 0.99), None);
-    }
 }

@@ -26,7 +26,7 @@ pub fn render_pixels(
     let region = ctx.config.region();
     // Rounds after the first of a render to a time budget draw from other
     // streams (the first round's are the plain render's).
-    let seed = ctx.config.seed.wrapping_add(ctx.samples.first as u64 * 0x9E37_79B9_7F4A_7C15);
+    let seed = |first: u32| ctx.config.seed.wrapping_add(first as u64 * 0x9E37_79B9_7F4A_7C15);
     let tiles: Vec<(u32, u32)> = (region.y0..region.y1)
         .step_by(TILE as usize)
         .flat_map(|y0| (region.x0..region.x1).step_by(TILE as usize).map(move |x0| (x0, y0)))
@@ -40,7 +40,8 @@ pub fn render_pixels(
                 for x in x0..(x0 + TILE).min(region.x1) {
                     // The stream of the pixel's index in the whole image,
                     // so a region renders the same pixels as the whole.
-                    let mut rng = Rng::new(seed, (y as u64) * width as u64 + x as u64);
+                    let first = ctx.samples_at(x, y).first;
+                    let mut rng = Rng::new(seed(first), (y as u64) * width as u64 + x as u64);
                     pixels.push(pixel(x, y, &mut rng, &mut count));
                 }
             }
@@ -61,8 +62,8 @@ pub fn render_pixels(
     (film, total)
 }
 
-/// Averages `radiance` over a pixel's camera rays: the samples of
-/// `ctx.samples` (a render of a single sample goes through the centre).
+/// Averages `radiance` over a pixel's camera rays: the samples
+/// `ctx.samples_at` the pixel (none: a black sample; a render of a single sample goes through the centre).
 /// With the independent sampler they are stratified and jittered and share
 /// the pixel's stream `rng`; with Sobol, sample `i` draws everything (its
 /// position first) from its own low-discrepancy stream ([`Rng::sobol`]).
@@ -73,7 +74,10 @@ pub fn average_over_pixel(
     mut radiance: impl FnMut(Ray, &mut Rng) -> Sample,
 ) -> Sample {
     let c = ctx.config;
-    let range = ctx.samples;
+    let range = ctx.samples_at(x, y);
+    if range.count == 0 {
+        return Sample::default();
+    }
     // One sample in all (not one round of many): the pixel's centre.
     let single = range.first == 0 && range.count == 1 && c.time.is_none();
     let camera_ray = |offset: glam::Vec2| {
