@@ -17,6 +17,11 @@ fn cornell() -> Scene {
     Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml")).unwrap()
 }
 
+/// An 8 x 8 render of `scene` by `integrator` to a budget of 0.3 s.
+fn eight_by_eight(scene: &Scene, integrator: IntegratorKind) -> RenderConfig {
+    RenderConfig { integrator, width: 8, height: 8, time: Some(0.3), ..scene.config.clone() }
+}
+
 #[test]
 fn samples_taken_in_rounds_make_the_plain_render_of_as_many_samples() {
     let scene = cornell();
@@ -78,6 +83,29 @@ fn samples_taken_in_rounds_make_the_plain_render_of_as_many_samples() {
     }
 }
 
+#[test]
+fn vcm_rounds_take_whole_samples_everywhere() {
+    // Light paths add to any pixel, so every pixel takes the same passes:
+    // the image is the plain render of as many.
+    let scene = cornell();
+    let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
+    let config = eight_by_eight(&scene, IntegratorKind::Vcm);
+    let timed = caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap();
+    let counts = timed.stats.pixel_samples.clone().unwrap();
+    let n = counts[0];
+    assert!(n >= 2 && counts.iter().all(|&c| c == n), "{counts:?}");
+    assert_eq!(timed.stats.samples_per_pixel, n);
+    let plain = RenderConfig { time: None, samples: n, ..config };
+    let plain = caustix::render(&scene, accel.as_ref(), &plain, &|_| {}).unwrap();
+    for (i, (a, b)) in timed.film.pixels.iter().zip(&plain.film.pixels).enumerate() {
+        let (a, b) = (a.total(), b.total());
+        assert!(
+            (a - b).abs().max_element() <= 1e-4 * b.max_element().max(1e-3),
+            "{n} passes: pixel {i}: {a} vs {b}"
+        );
+    }
+}
+
 /// The gather rays per camera sample a photon-mapped render to a time
 /// budget chose, from its summary notes.
 fn chosen_gather_rays(notes: &[String]) -> u32 {
@@ -123,13 +151,7 @@ fn the_budget_chooses_more_gather_rays_where_gathering_is_more_of_the_noise() {
 fn snapshots_show_the_samples_so_far() {
     let scene = cornell();
     let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
-    let config = RenderConfig {
-        integrator: IntegratorKind::Path,
-        width: 8,
-        height: 8,
-        time: Some(0.3),
-        ..scene.config.clone()
-    };
+    let config = eight_by_eight(&scene, IntegratorKind::Path);
     let seen = std::sync::Mutex::new(Vec::new());
     let snapshot = |film: &caustix::film::Film, samples: u32| {
         seen.lock().unwrap().push((samples, film.clone()));

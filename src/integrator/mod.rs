@@ -124,6 +124,15 @@ pub trait Integrator: Sync {
         false
     }
 
+    /// Whether each pixel is computed from its own camera samples alone
+    /// (through [`pixels::average_over_pixel`], which reads
+    /// [`Context::samples_at`]), so that pixels may take different numbers
+    /// of them. Not so where light paths add to any pixel (VCM and its
+    /// special cases): their rounds take the same samples everywhere.
+    fn pixels_sample_alone(&self) -> bool {
+        false
+    }
+
     /// Photon maps to build once for all the rounds of a render to a time
     /// budget (for the integrators that read them).
     fn photon_maps(&self, _ctx: &Context) -> Option<PhotonMaps> {

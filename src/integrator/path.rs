@@ -31,6 +31,10 @@ impl Integrator for PathTracer {
         true
     }
 
+    fn pixels_sample_alone(&self) -> bool {
+        true
+    }
+
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
         let (film, rays) = render_pixels(ctx, progress, |x, y, rng, count| {
             average_over_pixel(ctx, (x, y), rng, |ray, rng| radiance(ctx, ray, rng, count))

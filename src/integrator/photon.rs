@@ -68,6 +68,10 @@ impl Integrator for PhotonMapping {
         true
     }
 
+    fn pixels_sample_alone(&self) -> bool {
+        true
+    }
+
     /// The scene's maps; with a time budget, as many more photons as
     /// `photon_seconds` afford (never fewer than the scene's), grown in
     /// steps of at most 16 times, each judged by how long the last took.

@@ -1,16 +1,18 @@
 //! Rendering to a time budget in rounds of camera samples (the path
-//! tracer, Whitted and photon mapping), each round sized by the time the
-//! last one took per sample.
+//! tracer, Whitted, photon mapping, and VCM with its special cases), each
+//! round sized by the time the last one took per sample.
 //!
-//! The first rounds take whole samples per pixel: one, then as many again.
-//! After that, rounds follow the noise: a round's samples go half evenly to
-//! every pixel and half in proportion to the standard deviation of the
-//! pixels around it (for a fixed number of samples, shares in proportion to
-//! the deviation leave the least summed variance), each pixel's estimated
-//! from how its rounds' means differ. A light's edges, a mirror's
-//! highlights and glass get many samples; a flat wall few. The last round
-//! takes as many samples as the time left affords, however few that is per
-//! pixel.
+//! Where light paths add to any pixel (VCM), every round takes whole
+//! samples per pixel: one, then as many again each round (doubling), fewer
+//! when the time left affords fewer. Where each pixel is its own (the
+//! others), only the first two rounds do, one sample each. After that,
+//! rounds follow the noise: a round's samples go half evenly to every pixel
+//! and half in proportion to the standard deviation of the pixels around it
+//! (for a fixed number of samples, shares in proportion to the deviation
+//! leave the least summed variance), each pixel's estimated from how its
+//! rounds' means differ. A light's edges, a mirror's highlights and glass
+//! get many samples; a flat wall few. The last round takes as many samples
+//! as the time left affords, however few that is per pixel.
 //!
 //! A pixel's own samples never decide how many it takes, only its eight
 //! neighbours' (whose random numbers are their own), so each pixel's mean
@@ -110,28 +112,36 @@ impl Tally {
 }
 
 /// The luminance of a sample's total (the mean of its channels).
-fn luminance(sample: &Sample) -> f64 {
+pub(super) fn luminance(sample: &Sample) -> f64 {
     sample.total().to_array().iter().map(|&c| c as f64).sum::<f64>() / 3.0
 }
 
-/// `total` samples split over the pixels of `tally`: half evenly, half by
-/// the mean standard deviation of the pixels around each (evenly where none
-/// is known yet), each share rounded up or down at random so that the
-/// counts add up to `total` on average; each continues where the pixel's
-/// samples stopped.
+/// `total` samples split over the pixels of `tally` by [`split_by_noise`]
+/// of their deviations, each continuing where the pixel's samples stopped.
 fn allocate(tally: &Tally, total: u64, rng: &mut Rng) -> Vec<SampleRange> {
-    let pixels = tally.count.len();
-    let own: Vec<f64> = (0..pixels).map(|i| tally.deviation(i)).collect();
-    let deviation = around(&own, tally.width);
+    let own: Vec<f64> = (0..tally.count.len()).map(|i| tally.deviation(i)).collect();
+    split_by_noise(&own, tally.width, total, rng)
+        .into_iter()
+        .zip(&tally.count)
+        .map(|(count, &first)| SampleRange { first, count: count.min(MAX_SAMPLES - first) })
+        .collect()
+}
+
+/// `total` samples split over a grid of pixels `width` wide whose own
+/// standard deviations are `own`: half evenly, half by the mean deviation
+/// of the pixels around each, never its own (evenly where none is known
+/// yet), each share rounded up or down at random so that the counts add up
+/// to `total` on average.
+pub(super) fn split_by_noise(own: &[f64], width: usize, total: u64, rng: &mut Rng) -> Vec<u32> {
+    let pixels = own.len();
+    let deviation = around(own, width);
     let spread: f64 = deviation.iter().sum();
     let even = if spread > 0.0 && spread.is_finite() { EVEN_SHARE } else { 1.0 };
     (0..pixels)
         .map(|i| {
             let by_noise = if even < 1.0 { deviation[i] / spread } else { 0.0 };
             let share = even / pixels as f64 + (1.0 - even) * by_noise;
-            let count = (total as f64 * share + rng.uniform() as f64).floor() as u32;
-            let first = tally.count[i];
-            SampleRange { first, count: count.min(MAX_SAMPLES - first) }
+            (total as f64 * share + rng.uniform() as f64).floor() as u32
         })
         .collect()
 }
@@ -189,9 +199,12 @@ pub(super) fn render_to_time(
     // Where the stochastic rounding of noise-following rounds draws from.
     let mut rng = Rng::new(ctx.config.seed, 0x726f_756e_6473);
     let (mut rounds, mut even_spp, mut next) = (0u32, 0u32, pixels);
+    // Whether the round about to run is planned as the last: the one that
+    // takes what the time left affords (not a chain of ever smaller ones).
+    let mut last = false;
     loop {
         let round_start = Instant::now();
-        let even = rounds < EVEN_ROUNDS && next % pixels == 0;
+        let even = (rounds < EVEN_ROUNDS || !integrator.pixels_sample_alone()) && next % pixels == 0;
         let ranges = (!even).then(|| allocate(&tally, next, &mut rng));
         let rendered = match &ranges {
             None => {
@@ -217,13 +230,23 @@ pub(super) fn render_to_time(
         rays += rendered.stats.rays;
         first.get_or_insert(rendered);
         rounds += 1;
+        if last {
+            break;
+        }
         let done = tally.total();
         let left = budget.as_secs_f64() - start.elapsed().as_secs_f64();
         let affordable = left / per_sample.max(1e-12);
         // As many again as taken so far, or what the time left affords;
         // a round too small to matter (under a sample for every 64 pixels)
         // is not worth its start.
-        next = if affordable >= done as f64 { done } else { (affordable * LAST_ROUND_SHARE).floor() as u64 };
+        last = affordable < done as f64;
+        next = if last { (affordable * LAST_ROUND_SHARE).floor() as u64 } else { done };
+        if !integrator.pixels_sample_alone() {
+            last = false;
+            // Whole samples per pixel, as many as the time left affords.
+            let most = (MAX_SAMPLES as u64 * pixels).saturating_sub(done);
+            next = (affordable.floor() as u64).min(done).min(most) / pixels * pixels;
+        }
         let headroom = tally.count.iter().any(|&n| n < MAX_SAMPLES);
         if next < (pixels / 64).max(1) || !headroom {
             break;

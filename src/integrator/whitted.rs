@@ -27,6 +27,10 @@ impl Integrator for Whitted {
         true
     }
 
+    fn pixels_sample_alone(&self) -> bool {
+        true
+    }
+
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
         let tracer = WhittedTracer { ctx, surface_light: None };
         tracer.render(progress, Vec::new())

@@ -3,7 +3,9 @@
 //!
 //! 1. traces jittered camera paths from each pixel through mirrors and glass
 //!    to their first diffuse or glossy surface, adding the direct light
-//!    there by shadow rays (averaged over the pass's 4 paths);
+//!    there by shadow rays (averaged over all the pixel's paths: 4 a pass;
+//!    under a time budget 4 on average, more where the pixels around are
+//!    noisier);
 //!    the first path's surface point is the pixel's *visible point*;
 //! 2. traces a fresh batch of photons and lets every visible point within its
 //!    pixel's radius of a photon's landing place gather it;
@@ -31,6 +33,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::direct::{direct_light, LightSampling};
+use super::rounds::{luminance, split_by_noise};
 use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
@@ -93,10 +96,14 @@ impl Integrator for Sppm {
 #[derive(Debug, Clone)]
 struct PixelState {
     rng: Rng,
-    /// Sum over passes of what the camera paths find themselves: lights
-    /// seen, direct light by shadow rays, the ambient term, and the first
+    /// Sum over camera paths of what they find themselves: lights seen,
+    /// direct light by shadow rays, the ambient term, and the first
     /// surface's albedo, normal and depth.
     seen: Sample,
+    /// Camera paths so far.
+    paths: u32,
+    /// Sum over camera paths of the square of what each found's luminance.
+    seen_sq: f64,
     /// Gathered flux of caustic photons (`L S+ D`), scaled as the radius shrinks.
     tau_caustic: Vec3,
     /// Gathered flux of the other photons, scaled as the radius shrinks.
@@ -159,7 +166,10 @@ struct Density {
     max_radius: f32,
 }
 
-/// Camera paths per pixel and pass. Each adds the light it finds itself
+/// Camera paths per pixel and pass (under a time budget, on average: from
+/// the second pass one each and the rest split by [`split_by_noise`], more
+/// where the pixels around are noisier: a light's edges, the ceiling just
+/// above a point light, highlights). Each adds the light it finds itself
 /// (direct light by shadow rays, lights seen through mirrors and glass, the
 /// first surface's albedo, normal and depth), averaged over the pass; the
 /// first also leaves the visible point that gathers the pass's photons. One
@@ -170,6 +180,10 @@ struct Density {
 /// 1.5x as long there (34 passes in 5 s became 23) for 17-39% less error
 /// at equal time on those boxes (BENCHMARKS.md, "SPPM: camera paths per pass").
 const CAMERA_PATHS_PER_PASS: u32 = 4;
+
+/// The most camera paths beyond the first a pixel takes in one pass, so
+/// that no pass waits long on a few pixels.
+const MAX_EXTRA_PATHS: u32 = 64;
 
 /// Photons of the density batch within a pixel's starting radius: measured
 /// 8, 16, 32, 64 and 128 (32 and 64 best; 64 gathers more, so slower).
@@ -202,6 +216,8 @@ impl<'a> Progressive<'a> {
                 // The stream of the pixel's index in the whole image.
                 rng: Rng::new(config.seed, y as u64 * config.width as u64 + x as u64),
                 seen: Sample::default(),
+                paths: 0,
+                seen_sq: 0.0,
                 tau_caustic: Vec3::ZERO,
                 tau_global: Vec3::ZERO,
                 photons: 0.0,
@@ -231,20 +247,36 @@ impl<'a> Progressive<'a> {
         let ctx = self.ctx;
         let region = ctx.config.region();
         let density = self.density.as_ref();
+        // Split by the noise only under a time budget: a pixel's paths then
+        // depend on the pixels around, which a tile of the image (rendered
+        // on its own, to be merged) does not have at its edges. With a
+        // fixed number of passes a tile renders its pixels as the whole
+        // image does, bit for bit.
+        let extra = match ctx.config.time {
+            Some(_) => extra_paths(&self.pixels, region.width() as usize, ctx.config.seed, self.passes),
+            None => vec![CAMERA_PATHS_PER_PASS - 1; self.pixels.len()],
+        };
         let (points, counts): (Vec<Option<VisiblePoint>>, Vec<RayCount>) = self
             .pixels
             .par_iter_mut()
+            .zip(extra)
             .enumerate()
-            .map(|(i, state)| {
+            .map(|(i, (state, extra))| {
                 let mut count = RayCount::default();
                 // What the camera paths find themselves is averaged over
-                // all of this pass's; the first leaves the visible point.
+                // all of the pixel's; the first leaves the visible point.
                 let mut seen = std::mem::take(&mut state.seen);
-                let mut point = visible_point(&ctx, region.pixel(i), state, &mut count);
-                for _ in 1..CAMERA_PATHS_PER_PASS {
-                    visible_point(&ctx, region.pixel(i), state, &mut count);
+                let mut point = None;
+                for path in 0..=extra {
+                    let found = visible_point(&ctx, region.pixel(i), state, &mut count);
+                    if path == 0 {
+                        point = found;
+                    }
+                    let this = std::mem::take(&mut state.seen);
+                    state.seen_sq += luminance(&this).powi(2);
+                    seen += this;
                 }
-                seen += state.seen * (1.0 / CAMERA_PATHS_PER_PASS as f32);
+                state.paths += 1 + extra;
                 state.seen = seen;
                 if let (Some(vp), Some(density)) = (&mut point, density) {
                     if state.radius == 0.0 {
@@ -307,7 +339,7 @@ impl<'a> Progressive<'a> {
             .iter()
             .map(|s| {
                 let area = passes * PI * s.radius * s.radius;
-                let seen = s.seen * (1.0 / passes);
+                let seen = s.seen * (1.0 / s.paths.max(1) as f32);
                 if area == 0.0 {
                     // No visible point yet to set the radius: nothing gathered.
                     return seen;
@@ -371,6 +403,30 @@ impl<'a> Progressive<'a> {
         }
         gathered
     }
+}
+
+/// How many camera paths beyond the first each pixel (of a region `width`
+/// wide) takes in pass `pass`: [`CAMERA_PATHS_PER_PASS`] - 1 a pixel on
+/// average, split by the deviation of what the paths of the pixels around
+/// found (evenly before two paths of each are known), at most
+/// [`MAX_EXTRA_PATHS`]. Decided before the pass, serially: the same for any
+/// thread count.
+fn extra_paths(pixels: &[PixelState], width: usize, seed: u64, pass: u32) -> Vec<u32> {
+    let own: Vec<f64> = pixels
+        .iter()
+        .map(|s| {
+            if s.paths < 2 {
+                return 0.0;
+            }
+            let n = s.paths as f64;
+            let mean = luminance(&s.seen) / n;
+            ((s.seen_sq - n * mean * mean).max(0.0) / (n - 1.0)).sqrt()
+        })
+        .collect();
+    let total = (CAMERA_PATHS_PER_PASS - 1) as u64 * own.len() as u64;
+    // Where the rounding draws from: a stream per pass.
+    let mut rng = Rng::new(seed ^ 0x5_99A1, 0x7061_7468 + pass as u64);
+    split_by_noise(&own, width, total, &mut rng).into_iter().map(|n| n.min(MAX_EXTRA_PATHS)).collect()
 }
 
 /// Whether a pass gathers a photon: not one straight from a light (shadow
@@ -484,6 +540,39 @@ mod tests {
             let r = density(photons).radius_at(Vec3::new(0.5, 0.0, 0.5));
             assert!((r / expected - 1.0).abs() < 0.2, "{n} photons: {r} against {expected}");
         }
+    }
+
+    #[test]
+    fn camera_paths_go_where_the_pixels_around_are_noisy() {
+        // A row of five: the middle pixel's paths found 0 and 2 by turns,
+        // the others 1 always.
+        let state = |paths: u32, seen: f32, seen_sq: f64| PixelState {
+            rng: Rng::new(0, 0),
+            seen: Sample { direct: Vec3::splat(seen), ..Sample::default() },
+            paths,
+            seen_sq,
+            tau_caustic: Vec3::ZERO,
+            tau_global: Vec3::ZERO,
+            photons: 0.0,
+            radius: 0.0,
+        };
+        let calm = state(8, 8.0, 8.0);
+        let pixels = vec![calm.clone(), calm.clone(), state(8, 8.0, 16.0), calm.clone(), calm];
+        let mut sum = [0u64; 5];
+        for pass in 0..1000 {
+            for (s, n) in sum.iter_mut().zip(extra_paths(&pixels, 5, 1, pass)) {
+                *s += n as u64;
+            }
+        }
+        // 3 extra a pixel on average, 15 in all: 7.5 evenly, 7.5 to the
+        // middle one's two neighbours, none by its own spread.
+        let mean = sum.map(|s| s as f64 / 1000.0);
+        for (i, expected) in [1.5, 5.25, 1.5, 5.25, 1.5].into_iter().enumerate() {
+            assert!((mean[i] - expected).abs() < 0.1, "{mean:?}");
+        }
+        // Nothing known yet (a first pass): three each.
+        let fresh = vec![state(0, 0.0, 0.0); 5];
+        assert!(extra_paths(&fresh, 5, 1, 0).iter().all(|&n| n == 3));
     }
 
     #[test]
