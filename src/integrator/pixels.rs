@@ -63,7 +63,8 @@ pub fn render_pixels(
 }
 
 /// Averages `radiance` over a pixel's camera rays: the samples
-/// `ctx.samples_at` the pixel (none: a black sample; a render of a single sample goes through the centre).
+/// `ctx.samples_at` the pixel (none: a black sample; a render of a single
+/// sample goes through the centre).
 /// With the independent sampler they are stratified and jittered and share
 /// the pixel's stream `rng`; with Sobol, sample `i` draws everything (its
 /// position first) from its own low-discrepancy stream ([`Rng::sobol`]).

@@ -98,8 +98,9 @@ pub struct PhotonMap {
     precomputed: Option<Precomputed>,
 }
 
-/// What finds a map's photons near a point; both find the same photons in
-/// the same order (tests hold them to it).
+/// What finds a map's photons near a point; both find the same nearest
+/// photons, nearest first (among photons at exactly equal distances each in
+/// an order of its own; a test holds them to it).
 enum Search {
     /// kiddo's kd-tree over the photons (`None` when there are none).
     KdTree(Option<ImmutableKdTree<f32, 3>>),
@@ -208,7 +209,7 @@ impl PhotonMap {
 
     /// A map for final gathering: [`PhotonMap::new`], then
     /// [`PhotonMap::precompute_irradiance`], but searched by the runs the
-    /// precomputation builds rather than a kd-tree (the same answers; kiddo's
+    /// precomputation builds rather than a kd-tree (the same photons; kiddo's
     /// build was a tenth of the teapot's at 1M photons, BENCHMARKS.md).
     pub fn with_irradiance(photons: Vec<Photon>, stride: usize, estimate: &Estimate) -> PhotonMap {
         let photons = in_morton_order(photons);

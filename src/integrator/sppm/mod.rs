@@ -102,7 +102,7 @@ struct PixelState {
     seen: Sample,
     /// Camera paths so far.
     paths: u32,
-    /// Sum over camera paths of the square of what each found's luminance.
+    /// Sum over camera paths of the square of the luminance of what each found.
     seen_sq: f64,
     /// Gathered flux of caustic photons (`L S+ D`), scaled as the radius shrinks.
     tau_caustic: Vec3,
