@@ -84,18 +84,9 @@ impl Tally {
         }
     }
 
-    /// The standard deviation of pixel `i`'s samples' luminance, from the
-    /// spread of its rounds' means about its mean: `sum n_r (m_r - m)^2`
-    /// over `R - 1` is the variance of one sample (each round's mean varies
-    /// by it over `n_r`); 0 with fewer than two rounds.
+    /// The [`deviation`] of pixel `i`'s samples, its rounds the groups.
     fn deviation(&self, i: usize) -> f64 {
-        if self.rounds[i] < 2 {
-            return 0.0;
-        }
-        let n = self.count[i] as f64;
-        let mean = luminance(&self.sum[i]) / n;
-        let spread = (self.sum_sq[i] - n * mean * mean).max(0.0) / (self.rounds[i] - 1) as f64;
-        spread.sqrt()
+        deviation(&self.sum[i], self.sum_sq[i], self.count[i], self.rounds[i])
     }
 
     /// `film`'s pixels set to each pixel's mean.
@@ -109,6 +100,22 @@ impl Tally {
     fn total(&self) -> u64 {
         self.count.iter().map(|&n| n as u64).sum()
     }
+}
+
+/// The standard deviation of one sample's luminance from `groups` groups
+/// of `count` samples in all: `sum` of the samples, and `sum_sq` of each
+/// group's size times its mean luminance squared. The spread of the
+/// groups' means about the mean, `sum n_g (m_g - m)^2 / (groups - 1)`, is
+/// the variance of one sample (a group's mean varies by it over `n_g`);
+/// groups of one sample each make it the sample variance. 0 with fewer than
+/// two groups.
+pub(super) fn deviation(sum: &Sample, sum_sq: f64, count: u32, groups: u32) -> f64 {
+    if groups < 2 {
+        return 0.0;
+    }
+    let n = count as f64;
+    let mean = luminance(sum) / n;
+    ((sum_sq - n * mean * mean).max(0.0) / (groups - 1) as f64).sqrt()
 }
 
 /// The luminance of a sample's total (the mean of its channels).
@@ -239,10 +246,10 @@ pub(super) fn render_to_time(
         // As many again as taken so far, or what the time left affords;
         // a round too small to matter (under a sample for every 64 pixels)
         // is not worth its start.
-        last = affordable < done as f64;
-        next = if last { (affordable * LAST_ROUND_SHARE).floor() as u64 } else { done };
-        if !integrator.pixels_sample_alone() {
-            last = false;
+        if integrator.pixels_sample_alone() {
+            last = affordable < done as f64;
+            next = if last { (affordable * LAST_ROUND_SHARE).floor() as u64 } else { done };
+        } else {
             // Whole samples per pixel, as many as the time left affords.
             let most = (MAX_SAMPLES as u64 * pixels).saturating_sub(done);
             next = (affordable.floor() as u64).min(done).min(most) / pixels * pixels;

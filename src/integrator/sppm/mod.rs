@@ -33,7 +33,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::direct::{direct_light, LightSampling};
-use super::rounds::{luminance, split_by_noise};
+use super::rounds::{deviation, luminance, split_by_noise};
 use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
@@ -412,17 +412,8 @@ impl<'a> Progressive<'a> {
 /// [`MAX_EXTRA_PATHS`]. Decided before the pass, serially: the same for any
 /// thread count.
 fn extra_paths(pixels: &[PixelState], width: usize, seed: u64, pass: u32) -> Vec<u32> {
-    let own: Vec<f64> = pixels
-        .iter()
-        .map(|s| {
-            if s.paths < 2 {
-                return 0.0;
-            }
-            let n = s.paths as f64;
-            let mean = luminance(&s.seen) / n;
-            ((s.seen_sq - n * mean * mean).max(0.0) / (n - 1.0)).sqrt()
-        })
-        .collect();
+    // Each path is a group of one.
+    let own: Vec<f64> = pixels.iter().map(|s| deviation(&s.seen, s.seen_sq, s.paths, s.paths)).collect();
     let total = (CAMERA_PATHS_PER_PASS - 1) as u64 * own.len() as u64;
     // Where the rounding draws from: a stream per pass.
     let mut rng = Rng::new(seed ^ 0x5_99A1, 0x7061_7468 + pass as u64);
