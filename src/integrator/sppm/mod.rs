@@ -60,15 +60,18 @@ impl Integrator for Sppm {
         let start = Instant::now();
         let mut run = Progressive::new(ctx);
         match ctx.config.time {
-            // Passes until the next (as long as the longest so far) would not fit.
+            // Whole passes while one as long as the longest so far fits,
+            // then a part of a pass in what is left.
             Some(budget) => {
-                let mut longest = 0.0f64;
                 while run.passes() < crate::config::limits::MAX_PASSES {
-                    let pass_start = Instant::now();
-                    run.run_pass();
+                    let left = budget as f64 - start.elapsed().as_secs_f64();
+                    let fraction = if run.passes() == 0 { 1.0 } else { run.fraction_fitting(left) };
+                    if fraction < MIN_PASS_FRACTION {
+                        break;
+                    }
+                    run.run_part_of_pass(fraction);
                     progress(ctx.config.pixels());
-                    longest = longest.max(pass_start.elapsed().as_secs_f64());
-                    if start.elapsed().as_secs_f64() + longest > budget as f64 {
+                    if fraction < 1.0 {
                         break;
                     }
                     if let Some(snapshot) = ctx.snapshot.filter(|_| run.passes().is_power_of_two()) {
@@ -86,7 +89,11 @@ impl Integrator for Sppm {
         let mut rendered = run.rendered(start.elapsed());
         rendered.stats.samples_per_pixel = run.passes();
         if let Some(budget) = ctx.config.time {
-            rendered.stats.notes.push(format!("time budget {budget:.1} s: {} passes", run.passes()));
+            let last = match run.last_fraction {
+                f if f < 1.0 => format!(", the last {:.0}% of one", f * 100.0),
+                _ => String::new(),
+            };
+            rendered.stats.notes.push(format!("time budget {budget:.1} s: {} passes{last}", run.passes()));
         }
         rendered
     }
@@ -142,6 +149,15 @@ pub struct Progressive<'a> {
     ctx: Context<'a>,
     pixels: Vec<PixelState>,
     passes: u32,
+    /// Passes counted by their photons: a part of a pass counts as its
+    /// part (each of its photons carries a whole pass's share of power).
+    weight: f64,
+    /// Photons emitted so far (the starting radii's batch not counted).
+    emitted: u64,
+    /// The last pass's part of a whole one (1 for a whole pass).
+    last_fraction: f64,
+    /// The longest whole pass so far: seconds on camera paths, and on photons.
+    longest: (f64, f64),
     /// Rays traced so far (camera paths and shadow rays; photons not counted).
     rays: RayCount,
     /// Seconds spent tracing photons and gathering them.
@@ -184,6 +200,13 @@ const CAMERA_PATHS_PER_PASS: u32 = 4;
 /// The most camera paths beyond the first a pixel takes in one pass, so
 /// that no pass waits long on a few pixels.
 const MAX_EXTRA_PATHS: u32 = 64;
+
+/// Under a time budget, the share of the time left that the last part of
+/// a pass is planned to take (what is planned is a guess; the rest is margin).
+const LAST_PASS_SHARE: f64 = 0.9;
+
+/// The smallest part of a pass worth running at a time budget's end.
+const MIN_PASS_FRACTION: f64 = 0.05;
 
 /// Photons of the density batch within a pixel's starting radius: measured
 /// 8, 16, 32, 64 and 128 (32 and 64 best; 64 gathers more, so slower).
@@ -234,7 +257,18 @@ impl<'a> Progressive<'a> {
             max_radius: ctx.diagonal / 25.0,
         });
         let photon_seconds = start.elapsed().as_secs_f64();
-        Progressive { ctx: *ctx, pixels, passes: 0, rays: RayCount::default(), photon_seconds, density }
+        Progressive {
+            ctx: *ctx,
+            pixels,
+            passes: 0,
+            weight: 0.0,
+            emitted: 0,
+            last_fraction: 1.0,
+            longest: (0.0, 0.0),
+            rays: RayCount::default(),
+            photon_seconds,
+            density,
+        }
     }
 
     /// Passes run so far.
@@ -244,6 +278,32 @@ impl<'a> Progressive<'a> {
 
     /// Runs one pass: visible points, photons, radius update.
     pub fn run_pass(&mut self) {
+        self.run_part_of_pass(1.0);
+    }
+
+    /// The part of a pass (at most 1) that should fit in `left` seconds,
+    /// with a margin, judged by the longest whole pass so far: a pixel's
+    /// first camera path costs the same in any part of a pass (it leaves
+    /// the visible point), its other paths and the photons cost in
+    /// proportion to the part.
+    fn fraction_fitting(&self, left: f64) -> f64 {
+        let (camera, photons) = self.longest;
+        if camera + photons <= left {
+            return 1.0;
+        }
+        let first_path = camera / CAMERA_PATHS_PER_PASS as f64;
+        let proportional = camera - first_path + photons;
+        if proportional <= 0.0 {
+            return 0.0;
+        }
+        ((left * LAST_PASS_SHARE - first_path) / proportional).clamp(0.0, 1.0)
+    }
+
+    /// Runs a pass, or part of one (`fraction` of its photons and of its
+    /// camera paths beyond each pixel's first), as [`Progressive::run_pass`]
+    /// does. A part of a pass weighs as its part in the average over passes.
+    pub fn run_part_of_pass(&mut self, fraction: f64) {
+        let pass_start = Instant::now();
         let ctx = self.ctx;
         let region = ctx.config.region();
         let density = self.density.as_ref();
@@ -253,7 +313,11 @@ impl<'a> Progressive<'a> {
         // fixed number of passes a tile renders its pixels as the whole
         // image does, bit for bit.
         let extra = match ctx.config.time {
-            Some(_) => extra_paths(&self.pixels, region.width() as usize, ctx.config.seed, self.passes),
+            Some(_) => {
+                let total = (CAMERA_PATHS_PER_PASS - 1) as f64 * self.pixels.len() as f64 * fraction;
+                let width = region.width() as usize;
+                extra_paths(&self.pixels, width, ctx.config.seed, self.passes, total.round() as u64)
+            }
             None => vec![CAMERA_PATHS_PER_PASS - 1; self.pixels.len()],
         };
         let (points, counts): (Vec<Option<VisiblePoint>>, Vec<RayCount>) = self
@@ -291,9 +355,16 @@ impl<'a> Progressive<'a> {
             self.rays += c;
         }
 
+        let camera_seconds = pass_start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let gathered = self.gather_photons(&points);
-        self.photon_seconds += start.elapsed().as_secs_f64();
+        let per_pass = ctx.config.photons.sppm.photons_per_pass;
+        let photons = ((per_pass as f64 * fraction).round() as u32).clamp(1, per_pass);
+        let gathered = self.gather_photons(&points, photons);
+        let photon_seconds = start.elapsed().as_secs_f64();
+        self.photon_seconds += photon_seconds;
+        if photons == per_pass && camera_seconds + photon_seconds > self.longest.0 + self.longest.1 {
+            self.longest = (camera_seconds, photon_seconds);
+        }
 
         let alpha = ctx.config.photons.sppm.alpha;
         self.pixels.par_iter_mut().zip(gathered).for_each(|(state, g)| {
@@ -310,18 +381,25 @@ impl<'a> Progressive<'a> {
             state.radius = radius;
         });
         self.passes += 1;
+        self.last_fraction = photons as f64 / per_pass as f64;
+        self.weight += self.last_fraction;
+        self.emitted += photons as u64;
     }
 
     /// The image so far, with its work counts; `elapsed` is the time to report.
     pub fn rendered(&self, elapsed: Duration) -> Rendered {
         let sppm = &self.ctx.config.photons.sppm;
-        let emitted = self.passes as u64 * sppm.photons_per_pass as u64;
+        let emitted = self.emitted;
         let density = match self.density {
             Some(_) => format!(" (and {} for the starting radii)", sppm.photons_per_pass),
             None => String::new(),
         };
+        let last = match self.last_fraction {
+            f if f < 1.0 => format!(", the last of {}", self.emitted % sppm.photons_per_pass as u64),
+            _ => String::new(),
+        };
         let note = format!(
-            "photons: {emitted} emitted in {} passes of {}{density}, traced and gathered in {:.2} s",
+            "photons: {emitted} emitted in {} passes of {}{last}{density}, traced and gathered in {:.2} s",
             self.passes, sppm.photons_per_pass, self.photon_seconds
         );
         let config = self.ctx.config;
@@ -334,7 +412,7 @@ impl<'a> Progressive<'a> {
 
     /// The image so far, one [`Sample`] per pixel, row-major.
     fn components(&self) -> Vec<Sample> {
-        let passes = self.passes.max(1) as f32;
+        let passes = self.weight as f32;
         self.pixels
             .iter()
             .map(|s| {
@@ -356,7 +434,9 @@ impl<'a> Progressive<'a> {
     /// Traces this pass's photons and sums, per pixel, the flux its visible
     /// point gathers. Splats are collected per chunk of photons and added in
     /// photon order, so the sums do not depend on the thread count.
-    fn gather_photons(&self, points: &[Option<VisiblePoint>]) -> Vec<Gathered> {
+    /// `photons` of a pass's count: each carries a whole pass's share of
+    /// the lights' power.
+    fn gather_photons(&self, points: &[Option<VisiblePoint>], photons: u32) -> Vec<Gathered> {
         let mut gathered = vec![Gathered::default(); points.len()];
         let grid = Grid::new(points);
         if grid.is_empty() {
@@ -364,12 +444,15 @@ impl<'a> Progressive<'a> {
         }
         let scene = self.ctx.scene();
         let config = self.ctx.config;
+        // `emit` gives each photon its light's power over the photons
+        // emitted; this makes that over a whole pass's count.
+        let share = photons as f32 / config.photons.sppm.photons_per_pass as f32;
         // A different photon stream every pass.
         let stream_seed = (config.seed ^ 0x5_99A1)
             .wrapping_add((self.passes as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let chunks = emit(
             &self.ctx.query,
-            config.photons.sppm.photons_per_pass,
+            photons,
             config.photons.max_bounces,
             stream_seed,
             false,
@@ -387,7 +470,7 @@ impl<'a> Progressive<'a> {
                         continue;
                     }
                     let f = scene.materials[vp.material].brdf(vp.n, photon.incoming, vp.wo);
-                    splats.push((i, vp.weight * f * photon.power, arrival.diffuse_bounces == 0));
+                    splats.push((i, vp.weight * f * photon.power * share, arrival.diffuse_bounces == 0));
                 }
                 true
             },
@@ -406,15 +489,14 @@ impl<'a> Progressive<'a> {
 }
 
 /// How many camera paths beyond the first each pixel (of a region `width`
-/// wide) takes in pass `pass`: [`CAMERA_PATHS_PER_PASS`] - 1 a pixel on
-/// average, split by the deviation of what the paths of the pixels around
+/// wide) takes in pass `pass`: `total` in all ([`CAMERA_PATHS_PER_PASS`] - 1
+/// a pixel on average in a whole pass), split by the deviation of what the paths of the pixels around
 /// found (evenly before two paths of each are known), at most
 /// [`MAX_EXTRA_PATHS`]. Decided before the pass, serially: the same for any
 /// thread count.
-fn extra_paths(pixels: &[PixelState], width: usize, seed: u64, pass: u32) -> Vec<u32> {
+fn extra_paths(pixels: &[PixelState], width: usize, seed: u64, pass: u32, total: u64) -> Vec<u32> {
     // Each path is a group of one.
     let own: Vec<f64> = pixels.iter().map(|s| deviation(&s.seen, s.seen_sq, s.paths, s.paths)).collect();
-    let total = (CAMERA_PATHS_PER_PASS - 1) as u64 * own.len() as u64;
     // Where the rounding draws from: a stream per pass.
     let mut rng = Rng::new(seed ^ 0x5_99A1, 0x7061_7468 + pass as u64);
     split_by_noise(&own, width, total, &mut rng).into_iter().map(|n| n.min(MAX_EXTRA_PATHS)).collect()
@@ -551,7 +633,7 @@ mod tests {
         let pixels = vec![calm.clone(), calm.clone(), state(8, 8.0, 16.0), calm.clone(), calm];
         let mut sum = [0u64; 5];
         for pass in 0..1000 {
-            for (s, n) in sum.iter_mut().zip(extra_paths(&pixels, 5, 1, pass)) {
+            for (s, n) in sum.iter_mut().zip(extra_paths(&pixels, 5, 1, pass, 15)) {
                 *s += n as u64;
             }
         }
@@ -563,7 +645,7 @@ mod tests {
         }
         // Nothing known yet (a first pass): three each.
         let fresh = vec![state(0, 0.0, 0.0); 5];
-        assert!(extra_paths(&fresh, 5, 1, 0).iter().all(|&n| n == 3));
+        assert!(extra_paths(&fresh, 5, 1, 0, 15).iter().all(|&n| n == 3));
     }
 
     #[test]
