@@ -18,6 +18,8 @@
 //! one visible point per pixel and one batch of photons. Unless a starting
 //! radius is given, each pixel starts with the radius that holds 32 photons
 //! of a batch traced before the first pass, around its first visible point.
+//! Under a time budget the last pass may be a part of one (fewer photons
+//! and camera paths), weighed as that part.
 //!
 //! Photons arriving straight from a light are not gathered (shadow rays
 //! already count that light); those that came through mirrors and glass only
@@ -431,11 +433,11 @@ impl<'a> Progressive<'a> {
             .collect()
     }
 
-    /// Traces this pass's photons and sums, per pixel, the flux its visible
-    /// point gathers. Splats are collected per chunk of photons and added in
-    /// photon order, so the sums do not depend on the thread count.
-    /// `photons` of a pass's count: each carries a whole pass's share of
-    /// the lights' power.
+    /// Traces `photons` photons (a pass's count, or a part of it: each
+    /// carries a whole pass's share of the lights' power) and sums, per
+    /// pixel, the flux its visible point gathers. Splats are collected per
+    /// chunk of photons and added in photon order, so the sums do not
+    /// depend on the thread count.
     fn gather_photons(&self, points: &[Option<VisiblePoint>], photons: u32) -> Vec<Gathered> {
         let mut gathered = vec![Gathered::default(); points.len()];
         let grid = Grid::new(points);
@@ -490,9 +492,9 @@ impl<'a> Progressive<'a> {
 
 /// How many camera paths beyond the first each pixel (of a region `width`
 /// wide) takes in pass `pass`: `total` in all ([`CAMERA_PATHS_PER_PASS`] - 1
-/// a pixel on average in a whole pass), split by the deviation of what the paths of the pixels around
-/// found (evenly before two paths of each are known), at most
-/// [`MAX_EXTRA_PATHS`]. Decided before the pass, serially: the same for any
+/// a pixel on average in a whole pass), split by the deviation of what the
+/// paths of the pixels around found (evenly before two paths of each are
+/// known), at most [`MAX_EXTRA_PATHS`]. Decided before the pass, serially: the same for any
 /// thread count.
 fn extra_paths(pixels: &[PixelState], width: usize, seed: u64, pass: u32, total: u64) -> Vec<u32> {
     // Each path is a group of one.
