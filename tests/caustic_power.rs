@@ -111,11 +111,15 @@ fn over_sphere(origin: V, intensity: impl Fn(V) -> f64, n: usize) -> f64 {
 
 /// The glass sphere over a large white floor, lit by `light` (a TOML table).
 fn scene(light: &str) -> Scene {
+    scene_seen_by("[camera]\neye = [0, 2, 10]\nlook_at = [0, 0, 0]", 400.0, light)
+}
+
+/// The glass sphere over a white floor `floor` wide, seen as `view` (TOML:
+/// the camera, and the image if not the default), lit by `light`.
+fn scene_seen_by(view: &str, floor: f64, light: &str) -> Scene {
     let text = format!(
         r#"
-        [camera]
-        eye = [0, 2, 10]
-        look_at = [0, 0, 0]
+        {view}
         [materials.glass]
         transmittance = 1.0
         ior = {IOR}
@@ -128,8 +132,8 @@ fn scene(light: &str) -> Scene {
         material = "glass"
         [[quad]]
         center = [0, -3, 0]
-        u = [0, 0, 400]
-        v = [400, 0, 0]
+        u = [0, 0, {floor}]
+        v = [{floor}, 0, 0]
         material = "white"
         {light}
     "#
@@ -264,34 +268,9 @@ fn the_caustic_estimate_over_the_floor_holds_the_photons_power() {
 /// 0.35% at 128 x 128 after 614 passes of 100,000. BENCHMARKS.md.)
 #[test]
 fn the_photon_mapped_image_shows_the_caustics_power() {
-    let text = r#"
-        [camera]
-        eye = [-6, 4, 6]
-        look_at = [-2.25, -3, 0]
-        fov = 40
-        [image]
-        width = 64
-        height = 64
-        [materials.glass]
-        transmittance = 1.0
-        ior = 1.5
-        [materials.white]
-        diffuse = 0.5
-        [[sphere]]
-        center = [0, 0, 0]
-        radius = 1
-        subdivisions = 7
-        material = "glass"
-        [[quad]]
-        center = [0, -3, 0]
-        u = [0, 0, 40]
-        v = [40, 0, 0]
-        material = "white"
-        [[point_light]]
-        position = [3, 4, 0]
-        power = 100
-    "#;
-    let scene = Scene::from_toml(text, Path::new("caustic_image.toml")).unwrap();
+    let view =
+        "[camera]\neye = [-6, 4, 6]\nlook_at = [-2.25, -3, 0]\nfov = 40\n[image]\nwidth = 64\nheight = 64";
+    let scene = scene_seen_by(view, 40.0, "[[point_light]]\nposition = [3, 4, 0]\npower = 100");
     let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
     let render = |integrator, samples: u32| {
         let config = caustix::RenderConfig { integrator, samples, seed: 3, ..scene.config.clone() };
