@@ -262,7 +262,7 @@ fn the_caustic_estimate_over_the_floor_holds_the_photons_power() {
 ///
 /// Measured over seeds 1-4: the light tracer's sums vary by 0.25% (window)
 /// and 0.8% (shadow) from seed to seed; photon mapping's are 0.4% and 1.0%
-/// below their mean. (SPPM, not held here, is 3-4% above in the shadow
+/// below their mean. (SPPM, not held here, is 3-5% above in the shadow
 /// after 32 passes of 20,000 photons: its discs start wide where light is
 /// thin and shrink slowly, and a wide disc beside the caustic gathers it;
 /// 0.35% at 128 x 128 after 614 passes of 100,000. BENCHMARKS.md.)
