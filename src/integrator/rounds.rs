@@ -17,9 +17,10 @@
 //! A pixel's own samples never decide how many it takes, only its eight
 //! neighbours' (whose random numbers are their own), so each pixel's mean
 //! stays unbiased. Deciding by a pixel's own spread darkened the path
-//! tracer's Cornell box by 1.6% at 5 s and 3% at 1 s: a pixel whose early samples missed the
-//! rare bright paths through the glass looked calm and was left with few
-//! samples, one that caught them got many that diluted them.
+//! tracer's Cornell box by 1.6% at 5 s and 3% at 1 s: a pixel whose early
+//! samples missed the rare bright paths through the glass looked calm and
+//! was left with few samples, one that caught them got many that diluted
+//! them.
 //!
 //! Sample `i` of a pixel draws the same numbers as in a plain render, so
 //! each pixel is the plain render of as many samples as it took (up to the
@@ -41,8 +42,9 @@ const EVEN_ROUNDS: u32 = 2;
 const EVEN_SHARE: f64 = 0.5;
 
 /// The share of the time left that the last round plans to fill: its
-/// samples may cost more than the round before's (other pixels).
-const LAST_ROUND_SHARE: f64 = 0.9;
+/// samples may cost more than the round before's (other pixels). SPPM's
+/// last part of a pass plans the same.
+pub(super) const LAST_ROUND_SHARE: f64 = 0.9;
 
 /// What the rounds so far hold for each pixel of the region, row by row.
 struct Tally {

@@ -35,7 +35,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::direct::{direct_light, LightSampling};
-use super::rounds::{deviation, luminance, split_by_noise};
+use super::rounds::{deviation, luminance, split_by_noise, LAST_ROUND_SHARE};
 use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
@@ -91,9 +91,12 @@ impl Integrator for Sppm {
         let mut rendered = run.rendered(start.elapsed());
         rendered.stats.samples_per_pixel = run.passes();
         if let Some(budget) = ctx.config.time {
-            let last = match run.last_fraction {
-                f if f < 1.0 => format!(", the last {:.0}% of one", f * 100.0),
-                _ => String::new(),
+            let last = match run.last_part() {
+                Some(photons) => {
+                    let share = photons as f64 / ctx.config.photons.sppm.photons_per_pass as f64;
+                    format!(", the last {:.0}% of one", share * 100.0)
+                }
+                None => String::new(),
             };
             rendered.stats.notes.push(format!("time budget {budget:.1} s: {} passes{last}", run.passes()));
         }
@@ -151,13 +154,10 @@ pub struct Progressive<'a> {
     ctx: Context<'a>,
     pixels: Vec<PixelState>,
     passes: u32,
-    /// Passes counted by their photons: a part of a pass counts as its
-    /// part (each of its photons carries a whole pass's share of power).
-    weight: f64,
-    /// Photons emitted so far (the starting radii's batch not counted).
+    /// Photons emitted so far (the starting radii's batch not counted):
+    /// over a whole pass's count, the passes as the image weighs them (a
+    /// part of a pass, always the last, counts as its part).
     emitted: u64,
-    /// The last pass's part of a whole one (1 for a whole pass).
-    last_fraction: f64,
     /// The longest whole pass so far: seconds on camera paths, and on photons.
     longest: (f64, f64),
     /// Rays traced so far (camera paths and shadow rays; photons not counted).
@@ -202,10 +202,6 @@ const CAMERA_PATHS_PER_PASS: u32 = 4;
 /// The most camera paths beyond the first a pixel takes in one pass, so
 /// that no pass waits long on a few pixels.
 const MAX_EXTRA_PATHS: u32 = 64;
-
-/// Under a time budget, the share of the time left that the last part of
-/// a pass is planned to take (what is planned is a guess; the rest is margin).
-const LAST_PASS_SHARE: f64 = 0.9;
 
 /// The smallest part of a pass worth running at a time budget's end.
 const MIN_PASS_FRACTION: f64 = 0.05;
@@ -263,9 +259,7 @@ impl<'a> Progressive<'a> {
             ctx: *ctx,
             pixels,
             passes: 0,
-            weight: 0.0,
             emitted: 0,
-            last_fraction: 1.0,
             longest: (0.0, 0.0),
             rays: RayCount::default(),
             photon_seconds,
@@ -276,6 +270,12 @@ impl<'a> Progressive<'a> {
     /// Passes run so far.
     pub fn passes(&self) -> u32 {
         self.passes
+    }
+
+    /// The photons of the last pass, if it was a part of one.
+    fn last_part(&self) -> Option<u64> {
+        let part = self.emitted % self.ctx.config.photons.sppm.photons_per_pass as u64;
+        (part > 0).then_some(part)
     }
 
     /// Runs one pass: visible points, photons, radius update.
@@ -298,7 +298,7 @@ impl<'a> Progressive<'a> {
         if proportional <= 0.0 {
             return 0.0;
         }
-        ((left * LAST_PASS_SHARE - first_path) / proportional).clamp(0.0, 1.0)
+        ((left * LAST_ROUND_SHARE - first_path) / proportional).clamp(0.0, 1.0)
     }
 
     /// Runs a pass, or part of one (`fraction` of its photons and of its
@@ -383,8 +383,6 @@ impl<'a> Progressive<'a> {
             state.radius = radius;
         });
         self.passes += 1;
-        self.last_fraction = photons as f64 / per_pass as f64;
-        self.weight += self.last_fraction;
         self.emitted += photons as u64;
     }
 
@@ -396,9 +394,9 @@ impl<'a> Progressive<'a> {
             Some(_) => format!(" (and {} for the starting radii)", sppm.photons_per_pass),
             None => String::new(),
         };
-        let last = match self.last_fraction {
-            f if f < 1.0 => format!(", the last of {}", self.emitted % sppm.photons_per_pass as u64),
-            _ => String::new(),
+        let last = match self.last_part() {
+            Some(photons) => format!(", the last of {photons}"),
+            None => String::new(),
         };
         let note = format!(
             "photons: {emitted} emitted in {} passes of {}{last}{density}, traced and gathered in {:.2} s",
@@ -414,7 +412,7 @@ impl<'a> Progressive<'a> {
 
     /// The image so far, one [`Sample`] per pixel, row-major.
     fn components(&self) -> Vec<Sample> {
-        let passes = self.weight as f32;
+        let passes = (self.emitted as f64 / self.ctx.config.photons.sppm.photons_per_pass as f64) as f32;
         self.pixels
             .iter()
             .map(|s| {
