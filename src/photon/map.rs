@@ -122,6 +122,20 @@ pub(crate) struct Precomputed {
     block: usize,
 }
 
+/// The edge of the cells that answer final gathering's record lookups, in
+/// records' median gathering radii (about two records' spacing: records sit
+/// at every 12th photon, about 8 to a disc). 1.2 and 1.6 were measured
+/// alike (BENCHMARKS.md, issue 17).
+const CELL_PER_RADIUS: f32 = 1.5;
+
+/// The median radius of the records' gathering discs (among those finite
+/// and positive), if any.
+fn median_radius(values: &[(Vec3, Vec3, f32)]) -> Option<f32> {
+    let mut radii2: Vec<f32> = values.iter().map(|v| v.2).filter(|r2| r2.is_finite() && *r2 > 0.0).collect();
+    let mid = radii2.len() / 2;
+    (!radii2.is_empty()).then(|| radii2.select_nth_unstable_by(mid, f32::total_cmp).1.sqrt())
+}
+
 /// Irradiance estimated ahead at one photon's position.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct IrradianceRecord {
@@ -164,7 +178,11 @@ impl Precomputed {
         let positions: Vec<Vec3> = parts.iter().flat_map(|part| part.0.iter().copied()).collect();
         let values: Vec<_> = parts.iter().flat_map(|part| part.1.iter().copied()).collect();
         let guides = parts.into_iter().map(|part| part.2).collect();
-        Precomputed { tree: PointTree::new(&positions, &values), guides, block }
+        let mut tree = PointTree::new(&positions, &values);
+        if let Some(radius) = median_radius(&values) {
+            tree.list_cells(CELL_PER_RADIUS * radius);
+        }
+        Precomputed { tree, guides, block }
     }
 
     /// The gather guide of record `index` (in the order given), if it has one.
@@ -182,8 +200,8 @@ impl Precomputed {
         };
         // Usually the nearest point lies on the same surface; only if not,
         // look a little further.
-        let nearest = self.tree.nearest::<1>(p, f32::INFINITY);
-        match nearest.as_slice().iter().find(covers) {
+        let nearest = self.tree.nearest_one(p);
+        match nearest.as_ref().filter(covers) {
             Some(&found) => Some(found),
             None => {
                 self.tree.nearest::<8>(p, max_radius * max_radius).as_slice().iter().find(covers).copied()

@@ -14,6 +14,7 @@
 //! from that light: physical units, no tuning constants. Each photon has its
 //! own random stream, so the maps do not depend on the thread count.
 
+mod cells;
 pub mod file;
 pub mod guide;
 pub mod map;

@@ -15,6 +15,8 @@
 
 use glam::Vec3;
 
+use super::cells::Cells;
+
 /// At most this many points in a leaf.
 const LEAF: usize = 8;
 
@@ -30,6 +32,8 @@ pub struct PointTree<T> {
     values: Vec<T>,
     /// Per inner node (implicit numbering): the split value and its axis.
     splits: Vec<(f32, u8)>,
+    /// Candidate lists per grid cell for [`PointTree::nearest_one`], if built.
+    cells: Option<Cells>,
 }
 
 /// One point found: its squared distance from the query, its index in the
@@ -105,7 +109,33 @@ impl<T: Copy> PointTree<T> {
             values: entries.iter().map(|e| values[e.1 as usize]).collect(),
             items: entries.into_iter().map(|e| e.1).collect(),
             splits,
+            cells: None,
         }
+    }
+
+    /// Lists candidates per grid cell of edge `size` so that
+    /// [`PointTree::nearest_one`] answers most queries without a descent
+    /// (`cells.rs`); answers stay the same. Does nothing where such cells
+    /// cannot be trusted (a size tiny against the coordinates).
+    pub fn list_cells(&mut self, size: f32)
+    where
+        T: Sync,
+    {
+        self.cells = None;
+        self.cells =
+            Cells::new(&self.points, &self.items, size, |lo, hi, inside| self.in_box(lo, hi, inside));
+    }
+
+    /// The point nearest `q`, ties to the smaller index (`None` only when
+    /// there are no points): [`PointTree::nearest`] with one point and no
+    /// bound, from the cell lists where they hold `q`.
+    #[inline]
+    pub fn nearest_one(&self, q: Vec3) -> Option<Found> {
+        let Some(candidates) = self.cells.as_ref().and_then(|cells| cells.candidates(q)) else {
+            return self.nearest::<1>(q, f32::INFINITY).as_slice().first().copied();
+        };
+        let best = super::cells::nearest_in(candidates, q);
+        Some(Found { distance2: best.0, index: self.items[best.1 as usize], slot: best.1 })
     }
 
     /// Every point and its value, in the order given to [`PointTree::new`].
@@ -173,6 +203,48 @@ impl<T: Copy> PointTree<T> {
             }
         }
         found
+    }
+
+    /// The slots of every point in the box from `lo` to `hi` (inclusive),
+    /// into `inside` (cleared first).
+    fn in_box(&self, lo: Vec3, hi: Vec3, inside: &mut Vec<u32>) {
+        inside.clear();
+        if self.points.is_empty() {
+            return;
+        }
+        // (node, first point, end); at most one entry per level waits, and
+        // there are at most 29 levels (as in `nearest`).
+        let mut stack = [(0usize, 0usize, 0usize); 32];
+        stack[0] = (0, 0, self.points.len());
+        let mut depth = 1;
+        while depth > 0 {
+            depth -= 1;
+            let (mut node, mut first, mut end) = stack[depth];
+            while end - first > LEAF {
+                let mid = first + (end - first) / 2;
+                let (value, axis) = self.splits[node];
+                let (left, right) = ((2 * node + 1, first, mid), (2 * node + 2, mid, end));
+                // The left half's points are at most the split value, the
+                // right half's at least it.
+                match (lo[axis as usize] <= value, hi[axis as usize] >= value) {
+                    (true, true) => {
+                        stack[depth] = right;
+                        depth += 1;
+                        (node, first, end) = left;
+                    }
+                    (true, false) => (node, first, end) = left,
+                    (false, true) => (node, first, end) = right,
+                    (false, false) => break,
+                }
+            }
+            if end - first <= LEAF {
+                inside.extend(
+                    (first..end)
+                        .filter(|&i| self.points[i].cmpge(lo).all() && self.points[i].cmple(hi).all())
+                        .map(|i| i as u32),
+                );
+            }
+        }
     }
 }
 
@@ -274,6 +346,104 @@ mod tests {
         let (one, two) = (build(1), build(2));
         assert_eq!((&one.points, &one.items, &one.values), (&two.points, &two.items, &two.values));
         assert_eq!(one.splits, two.splits);
+    }
+
+    /// Points on the faces of a unit box (many sharing a coordinate
+    /// exactly, as photons on a floor do), on a lattice on the floor (equal
+    /// distances), some twice, scaled by `scale` and moved by `offset`.
+    fn on_faces(n: usize, rng: &mut Rng, scale: f32, offset: Vec3) -> Vec<Vec3> {
+        let mut points: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+                let p = match i % 4 {
+                    0 => Vec3::new(p.x, 0.0, p.z),
+                    1 => Vec3::new(1.0, p.y, p.z),
+                    2 => Vec3::new((i / 4 % 20) as f32 / 20.0, 0.0, (i / 80 % 20) as f32 / 20.0),
+                    _ => p,
+                };
+                p * scale + offset
+            })
+            .collect();
+        points[n - 1] = points[7];
+        points
+    }
+
+    #[test]
+    fn the_cells_answer_as_the_tree() {
+        let mut rng = Rng::new(9, 3);
+        // Cells of about two points' spacing on the floor (0.05), and cells
+        // so large that few lists are short enough to keep.
+        for (scale, offset, size) in [
+            (1.0, Vec3::ZERO, 0.05),
+            (1.0, Vec3::ZERO, 0.12),
+            (1.0, Vec3::splat(-3.0), 0.3),
+            (1e-6, Vec3::splat(1e-6), 0.05e-6),
+            (1e4, Vec3::new(2e4, 0.0, -1e4), 0.05e4),
+        ] {
+            let points = on_faces(6000, &mut rng, scale, offset);
+            let mut tree = PointTree::new(&points, &points);
+            tree.list_cells(size);
+            assert!(tree.cells.is_some(), "cells at scale {scale}");
+            let mut from_cells = 0;
+            for j in 0..20_000 {
+                let q = match j % 5 {
+                    // At a point, at the middle of lattice points (ties), on
+                    // a face, anywhere near the box, far off.
+                    0 => points[j % points.len()],
+                    1 => Vec3::new((j % 20) as f32 + 0.5, 0.0, (j / 20 % 20) as f32) / 20.0 * scale + offset,
+                    2 => Vec3::new(rng.uniform(), 0.0, rng.uniform()) * scale + offset,
+                    3 => {
+                        (Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 1.2 - 0.1) * scale + offset
+                    }
+                    _ => Vec3::splat(rng.uniform() * 50.0) * scale + offset,
+                };
+                let tree_says = tree.nearest::<1>(q, f32::INFINITY).as_slice()[0];
+                assert_eq!(tree.nearest_one(q), Some(tree_says), "q {q} at scale {scale}, cell size {size}");
+                from_cells += tree.cells.as_ref().unwrap().candidates(q).is_some() as usize;
+            }
+            // At two spacings, most queries but those off the faces are
+            // answered from the cells.
+            if size == 0.05 * scale {
+                assert!(from_cells > 12_000, "{from_cells} of 20000 from the cells at scale {scale}");
+            }
+        }
+        // No points, and a query that is not a number.
+        let mut empty = PointTree::<Vec3>::new(&[], &[]);
+        empty.list_cells(0.1);
+        assert_eq!(empty.nearest_one(Vec3::ZERO), None);
+        let mut tree = PointTree::new(&[Vec3::ZERO], &[0]);
+        tree.list_cells(0.1);
+        assert_eq!(tree.nearest_one(Vec3::NAN), None);
+    }
+
+    #[test]
+    fn no_cells_where_rounding_could_misplace_a_query() {
+        let mut rng = Rng::new(9, 4);
+        // Cells a ten-thousandth of the coordinates, and sizes that are no size.
+        let points = on_faces(100, &mut rng, 1.0, Vec3::splat(1e4));
+        for size in [1.0, 0.0, -1.0, f32::NAN, f32::INFINITY] {
+            let mut tree = PointTree::new(&points, &points);
+            tree.list_cells(size);
+            assert!(tree.cells.is_none(), "size {size}");
+            assert_eq!(tree.nearest_one(points[3]).unwrap().distance2, 0.0);
+        }
+    }
+
+    #[test]
+    fn the_cells_do_not_depend_on_the_threads() {
+        let mut rng = Rng::new(9, 5);
+        let points = on_faces(20_000, &mut rng, 1.0, Vec3::ZERO);
+        let build = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| {
+                let mut tree = PointTree::new(&points, &points);
+                tree.list_cells(0.08);
+                tree.cells.unwrap().listed()
+            })
+        };
+        let one = build(1);
+        assert!(one.len() > 100);
+        assert_eq!(one, build(2));
     }
 
     #[test]

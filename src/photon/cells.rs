@@ -1,0 +1,341 @@
+//! Candidate lists per grid cell: the exact nearest point to most queries
+//! in one hash probe and a short scan in SIMD lanes, instead of a kd-tree
+//! descent.
+//!
+//! Final gathering looks up the nearest precomputed irradiance record at
+//! every gather hit, the largest share of a photon-mapped render
+//! (BENCHMARKS.md, issue 17). Gather hits land on the surfaces the records
+//! lie on, so cells of a uniform grid that hold records answer most of
+//! them.
+//!
+//! Each listed cell keeps every point that can be the nearest to a query in
+//! it. Let `U` be the largest distance from some point `r` to the cell (at
+//! a corner: distance is convex). A query `q` in the cell has its nearest
+//! point within `|q - r| <= U`, so that point lies within `U` of the cell's
+//! box: those are the candidates, with `r` the one that makes `U` least.
+//! Of them, a point that another is nearer than everywhere in the box is
+//! dropped (the difference of two squared distances is affine in `q`, so
+//! it suffices that it holds at the corners). The answer is then the one
+//! the kd-tree gives, to the bit: the same squared distances, in the same
+//! order of operations, ties to the smaller index. The boxes, `U` and the
+//! test of being beaten are widened by margins beyond what rounding in a
+//! query's `f32` arithmetic can move.
+//!
+//! Queries outside the listed cells (none of the points in them, or lists
+//! that would be long) go to the kd-tree.
+
+use glam::{DVec3, UVec3, Vec3, Vec4};
+use rayon::prelude::*;
+
+/// Cells per axis at most (21 bits of a key each).
+const AXIS_CELLS: u32 = 1 << 21;
+
+/// A cell is listed only if this many points or fewer can be its nearest.
+const LONGEST_LIST: usize = 96;
+
+/// How many of the points nearest a cell's centre are tried as beating
+/// each other point everywhere in the cell.
+const DOMINATORS: usize = 8;
+
+/// One cell of the hash table: its key and its list's range in `candidates`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Entry {
+    key: u64,
+    start: u32,
+    len: u32,
+}
+
+const EMPTY: u64 = u64::MAX;
+
+/// Candidate lists per cell for the points of a
+/// [`PointTree`](super::nearest::PointTree), by their slot in it.
+pub(super) struct Cells {
+    origin: Vec3,
+    /// One over the cell's edge.
+    inverse_size: f32,
+    /// Open addressing, a power of two long, at most half full.
+    table: Vec<Entry>,
+    /// Per listed cell, its points by index (the order given to the tree),
+    /// four to a group, the last group's spare lanes infinitely far.
+    candidates: Vec<Group>,
+}
+
+/// Four candidates side by side, for distances in SIMD lanes: one cache line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(64))]
+pub(super) struct Group {
+    x: Vec4,
+    y: Vec4,
+    z: Vec4,
+    slots: [u32; 4],
+}
+
+impl Group {
+    fn new(points: &[(Vec3, u32)]) -> Group {
+        let lane = |i: usize| points.get(i).map_or((Vec3::INFINITY, u32::MAX), |&(p, slot)| (p, slot));
+        let [a, b, c, d] = [lane(0), lane(1), lane(2), lane(3)];
+        Group {
+            x: Vec4::new(a.0.x, b.0.x, c.0.x, d.0.x),
+            y: Vec4::new(a.0.y, b.0.y, c.0.y, d.0.y),
+            z: Vec4::new(a.0.z, b.0.z, c.0.z, d.0.z),
+            slots: [a.1, b.1, c.1, d.1],
+        }
+    }
+}
+
+/// The candidate nearest `q` in `groups` and its squared distance
+/// (`(p - q).length_squared()` to the bit, in the same order of operations),
+/// ties to the earliest.
+#[inline]
+pub(super) fn nearest_in(groups: &[Group], q: Vec3) -> (f32, u32) {
+    let (qx, qy, qz) = (Vec4::splat(q.x), Vec4::splat(q.y), Vec4::splat(q.z));
+    let mut best = Vec4::INFINITY;
+    let mut at = Vec4::ZERO;
+    let mut here = Vec4::new(0.0, 1.0, 2.0, 3.0);
+    for g in groups {
+        let (dx, dy, dz) = (g.x - qx, g.y - qy, g.z - qz);
+        let d2 = dx * dx + dy * dy + dz * dz;
+        let closer = d2.cmplt(best);
+        best = Vec4::select(closer, d2, best);
+        at = Vec4::select(closer, here, at);
+        here += Vec4::splat(4.0);
+    }
+    let (mut d2, mut i) = (best.x, at.x);
+    for (lane_d2, lane_at) in [(best.y, at.y), (best.z, at.z), (best.w, at.w)] {
+        if lane_d2 < d2 || (lane_d2 == d2 && lane_at < i) {
+            (d2, i) = (lane_d2, lane_at);
+        }
+    }
+    let i = i as usize;
+    (d2, groups[i / 4].slots[i % 4])
+}
+
+impl Cells {
+    /// Lists cells of edge `size` over `points` (in the tree's slot order,
+    /// `index[slot]` the order given): every cell holding a point. `in_box`
+    /// finds the slots of the points in a box (`lo`, `hi`, into a buffer it
+    /// clears first). `None` when there is no grid worth having: no points,
+    /// a size that is not positive and finite, cells so small against the
+    /// coordinates that rounding could move a query out of its cell, or
+    /// coordinates whose squares would leave `f32`'s normal range. The cells
+    /// and lists depend only on the points, not on the threads.
+    pub(super) fn new(
+        points: &[Vec3],
+        index: &[u32],
+        size: f32,
+        in_box: impl Fn(Vec3, Vec3, &mut Vec<u32>) + Sync,
+    ) -> Option<Cells> {
+        if points.is_empty() || !(size.is_finite() && size > 0.0) {
+            return None;
+        }
+        let (lo, hi) =
+            points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let largest = lo.abs().max(hi.abs()).max_element();
+        // With cells of at least a thousandth of the coordinates, the grid
+        // spans a few thousand cells, and rounding misplaces a query by at
+        // most a few ten-thousandths of one: within the thousandth `Cell`
+        // widens by. Squared distances stay normal and finite.
+        if !(largest.is_finite() && largest <= 1e15)
+            || size < 1e-3 * largest
+            || size < 1e-12
+            || ((hi - lo) / size).max_element() >= (AXIS_CELLS - 4) as f32
+        {
+            return None;
+        }
+        let origin = lo - Vec3::splat(size);
+        let inverse_size = 1.0 / size;
+        let mut in_cells: Vec<(u64, u32)> = points
+            .par_iter()
+            .enumerate()
+            .map(|(slot, &p)| (key(((p - origin) * inverse_size).floor().as_uvec3()), slot as u32))
+            .collect();
+        in_cells.par_sort_unstable();
+        let cells: Vec<&[(u64, u32)]> = in_cells.chunk_by(|a, b| a.0 == b.0).collect();
+        let lists: Vec<Vec<Group>> = cells
+            .par_iter()
+            .map_init(Vec::new, |buffer, cell| {
+                let corner = origin + unkey(cell[0].0).as_vec3() * size;
+                let slots = cell.iter().map(|&(_, slot)| slot);
+                Cell::new(corner, size, largest).candidates(points, index, slots, |lo, hi| {
+                    in_box(lo, hi, buffer);
+                    buffer.as_slice()
+                })
+            })
+            .collect();
+
+        let listed = lists.iter().filter(|list| !list.is_empty()).count();
+        let mut table = vec![Entry { key: EMPTY, start: 0, len: 0 }; (2 * listed).next_power_of_two().max(2)];
+        let mut candidates = Vec::with_capacity(lists.iter().map(Vec::len).sum());
+        let mask = table.len() - 1;
+        for (cell, list) in cells.iter().zip(&lists) {
+            if list.is_empty() {
+                continue;
+            }
+            let k = cell[0].0;
+            let mut at = hash(k) & mask;
+            while table[at].key != EMPTY {
+                at = (at + 1) & mask;
+            }
+            table[at] = Entry { key: k, start: candidates.len() as u32, len: list.len() as u32 };
+            candidates.extend_from_slice(list);
+        }
+        Some(Cells { origin, inverse_size, table, candidates })
+    }
+
+    /// The candidates for a query at `q` (positions and slots, by index), or
+    /// `None` when its cell is not listed.
+    #[inline]
+    pub(super) fn candidates(&self, q: Vec3) -> Option<&[Group]> {
+        let g = (q - self.origin) * self.inverse_size;
+        // (Also false for NaN.)
+        if !(g.cmpge(Vec3::ZERO).all() && g.cmplt(Vec3::splat(AXIS_CELLS as f32)).all()) {
+            return None;
+        }
+        let k = key(g.as_uvec3());
+        let mask = self.table.len() - 1;
+        let mut at = hash(k) & mask;
+        loop {
+            let entry = self.table[at];
+            if entry.key == k {
+                return Some(&self.candidates[entry.start as usize..(entry.start + entry.len) as usize]);
+            }
+            if entry.key == EMPTY {
+                return None;
+            }
+            at = (at + 1) & mask;
+        }
+    }
+
+    /// Every listed cell's key and its candidates' slots, in table order.
+    #[cfg(test)]
+    pub(super) fn listed(&self) -> Vec<(u64, Vec<u32>)> {
+        let slots = |e: &Entry| {
+            self.candidates[e.start as usize..(e.start + e.len) as usize]
+                .iter()
+                .flat_map(|g| g.slots)
+                .collect()
+        };
+        self.table.iter().filter(|e| e.key != EMPTY).map(|e| (e.key, slots(e))).collect()
+    }
+}
+
+/// One cell's box, widened a little beyond its edges so that a query that
+/// rounding puts in it lies in the box.
+struct Cell {
+    lo: Vec3,
+    hi: Vec3,
+    /// More than twice what rounding can change a squared distance by, in
+    /// a query's `f32` arithmetic near the box.
+    margin2: f32,
+}
+
+impl Cell {
+    /// The cell from `corner` to `corner + size`, among points whose
+    /// coordinates are at most `largest` in magnitude (`size` at least a
+    /// thousandth of it: [`Cells::new`]).
+    fn new(corner: Vec3, size: f32, largest: f32) -> Cell {
+        let slack = Vec3::splat(1e-3 * size);
+        // A difference of coordinates is off by at most an ulp of the
+        // largest (2^-23 of it), a squared distance of a few cells' length
+        // by some such ulps times that length, and a thousandth of a cell
+        // squared beyond.
+        let ulp = largest * f32::EPSILON;
+        Cell {
+            lo: corner - slack,
+            hi: corner + Vec3::splat(size) + slack,
+            margin2: 1e-3 * size * size + 64.0 * size * ulp,
+        }
+    }
+
+    /// The largest squared distance from `p` to the box (at a corner), and
+    /// a margin for rounding.
+    fn reach2(&self, p: Vec3) -> f32 {
+        (p - self.lo).abs().max((p - self.hi).abs()).length_squared() * 1.002 + self.margin2
+    }
+
+    /// The squared distance from `p` to the box (0 inside).
+    fn distance2(&self, p: Vec3) -> f32 {
+        (self.lo - p).max(p - self.hi).max(Vec3::ZERO).length_squared()
+    }
+
+    /// The points that can be nearest to a query in the box, by index, in
+    /// groups of four (none when more than [`LONGEST_LIST`]): those within
+    /// reach of the box from the points `inside` it or near it (see the
+    /// module's comment), less those another point is nearer than everywhere
+    /// in it. `in_box(lo, hi)` gives the slots of the points in a box.
+    fn candidates<'a>(
+        &self,
+        points: &[Vec3],
+        index: &[u32],
+        inside: impl Iterator<Item = u32>,
+        in_box: impl FnOnce(Vec3, Vec3) -> &'a [u32],
+    ) -> Vec<Group> {
+        let centre = 0.5 * (self.lo + self.hi);
+        let reach2 = inside.map(|slot| self.reach2(points[slot as usize])).fold(f32::INFINITY, f32::min);
+        let reach = Vec3::splat(reach2.sqrt() * 1.001);
+        let mut list: Vec<(Vec3, u32)> = in_box(self.lo - reach, self.hi + reach)
+            .iter()
+            .map(|&slot| (points[slot as usize], slot))
+            .filter(|&(p, _)| self.distance2(p) <= reach2)
+            .collect();
+        // A point outside the cell may reach all of it sooner.
+        let reach2 = list.iter().map(|&(p, _)| self.reach2(p)).fold(reach2, f32::min);
+        list.retain(|&(p, _)| self.distance2(p) <= reach2);
+        // The few nearest the centre first, in order: only a point nearer
+        // the centre can be nearer than another everywhere in the box.
+        let by_centre = |a: &(Vec3, u32), b: &(Vec3, u32)| {
+            (a.0 - centre).length_squared().total_cmp(&(b.0 - centre).length_squared()).then(a.1.cmp(&b.1))
+        };
+        if list.len() > DOMINATORS {
+            list.select_nth_unstable_by(DOMINATORS, by_centre);
+        }
+        let dominators = DOMINATORS.min(list.len());
+        list[..dominators].sort_unstable_by(by_centre);
+        // The difference of two points' squared distances is affine, so
+        // least at a corner: a point is beaten everywhere when it is beaten
+        // at every corner (in f64, by a margin, so that rounding in a query
+        // cannot disagree). Only the few nearest the centre are tried as
+        // beating the others: they beat almost all that are beaten, and a
+        // point kept that could go costs a lane, never an answer.
+        let corners: [DVec3; 8] = std::array::from_fn(|i| {
+            let pick = |bit: usize, lo: f32, hi: f32| f64::from(if i >> bit & 1 == 0 { lo } else { hi });
+            DVec3::new(
+                pick(0, self.lo.x, self.hi.x),
+                pick(1, self.lo.y, self.hi.y),
+                pick(2, self.lo.z, self.hi.z),
+            )
+        });
+        let margin = f64::from(self.margin2);
+        let to_corners: Vec<[f64; 8]> = list
+            .iter()
+            .map(|&(p, _)| std::array::from_fn(|c| (corners[c] - p.as_dvec3()).length_squared()))
+            .collect();
+        let beaten = |r: &[f64; 8], by: &[f64; 8]| r.iter().zip(by).all(|(r, by)| r - by > margin);
+        let mut list: Vec<(Vec3, u32)> = list
+            .iter()
+            .zip(&to_corners)
+            .enumerate()
+            .filter(|&(i, (_, r))| !to_corners[..i.min(DOMINATORS)].iter().any(|by| beaten(r, by)))
+            .map(|(_, (&entry, _))| entry)
+            .collect();
+        if list.len() > LONGEST_LIST {
+            return Vec::new();
+        }
+        list.sort_unstable_by_key(|&(_, slot)| index[slot as usize]);
+        list.chunks(4).map(Group::new).collect()
+    }
+}
+
+fn key(cell: UVec3) -> u64 {
+    cell.x as u64 | (cell.y as u64) << 21 | (cell.z as u64) << 42
+}
+
+fn unkey(k: u64) -> UVec3 {
+    let mask = (1 << 21) - 1;
+    UVec3::new((k & mask) as u32, (k >> 21 & mask) as u32, (k >> 42 & mask) as u32)
+}
+
+/// Spreads a key's bits over the table (a multiplicative hash, top bits).
+fn hash(k: u64) -> usize {
+    (k.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) as usize
+}
