@@ -24,11 +24,10 @@
 //! Queries outside the listed cells (none of the points in them, or lists
 //! that would be long) go to the kd-tree.
 
-use glam::{DVec3, UVec3, Vec3, Vec4};
+use glam::{DVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
-/// Cells per axis at most (21 bits of a key each).
-const AXIS_CELLS: u32 = 1 << 21;
+use super::cell_table::{key, points_by_cell, unkey, CellTable, KEY_AXIS_CELLS};
 
 /// A cell is listed only if this many points or fewer can be its nearest.
 const LONGEST_LIST: usize = 96;
@@ -37,24 +36,14 @@ const LONGEST_LIST: usize = 96;
 /// each other point everywhere in the cell.
 const DOMINATORS: usize = 8;
 
-/// One cell of the hash table: its key and its list's range in `candidates`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Entry {
-    key: u64,
-    start: u32,
-    len: u32,
-}
-
-const EMPTY: u64 = u64::MAX;
-
 /// Candidate lists per cell for the points of a
 /// [`PointTree`](super::nearest::PointTree), by their slot in it.
 pub(super) struct Cells {
     origin: Vec3,
     /// One over the cell's edge.
     inverse_size: f32,
-    /// Open addressing, a power of two long, at most half full.
-    table: Vec<Entry>,
+    /// Each listed cell's range in `candidates`.
+    table: CellTable,
     /// Per listed cell, its points by index (the order given to the tree),
     /// four to a group, the last group's spare lanes infinitely far.
     candidates: Vec<Group>,
@@ -138,18 +127,13 @@ impl Cells {
         if !(largest.is_finite() && largest <= 1e15)
             || size < 1e-3 * largest
             || size < 1e-12
-            || ((hi - lo) / size).max_element() >= (AXIS_CELLS - 4) as f32
+            || ((hi - lo) / size).max_element() >= (KEY_AXIS_CELLS - 4) as f32
         {
             return None;
         }
         let origin = lo - Vec3::splat(size);
         let inverse_size = 1.0 / size;
-        let mut in_cells: Vec<(u64, u32)> = points
-            .par_iter()
-            .enumerate()
-            .map(|(slot, &p)| (key(((p - origin) * inverse_size).floor().as_uvec3()), slot as u32))
-            .collect();
-        in_cells.par_sort_unstable();
+        let in_cells = points_by_cell(points, origin, inverse_size);
         let cells: Vec<&[(u64, u32)]> = in_cells.chunk_by(|a, b| a.0 == b.0).collect();
         let lists: Vec<Vec<Group>> = cells
             .par_iter()
@@ -163,22 +147,15 @@ impl Cells {
             })
             .collect();
 
-        let listed = lists.iter().filter(|list| !list.is_empty()).count();
-        let mut table = vec![Entry { key: EMPTY, start: 0, len: 0 }; (2 * listed).next_power_of_two().max(2)];
+        let mut ranges = Vec::new();
         let mut candidates = Vec::with_capacity(lists.iter().map(Vec::len).sum());
-        let mask = table.len() - 1;
         for (cell, list) in cells.iter().zip(&lists) {
-            if list.is_empty() {
-                continue;
+            if !list.is_empty() {
+                ranges.push((cell[0].0, candidates.len() as u32, list.len() as u32));
+                candidates.extend_from_slice(list);
             }
-            let k = cell[0].0;
-            let mut at = hash(k) & mask;
-            while table[at].key != EMPTY {
-                at = (at + 1) & mask;
-            }
-            table[at] = Entry { key: k, start: candidates.len() as u32, len: list.len() as u32 };
-            candidates.extend_from_slice(list);
         }
+        let table = CellTable::new(&ranges);
         Some(Cells { origin, inverse_size, table, candidates })
     }
 
@@ -188,34 +165,18 @@ impl Cells {
     pub(super) fn candidates(&self, q: Vec3) -> Option<&[Group]> {
         let g = (q - self.origin) * self.inverse_size;
         // (Also false for NaN.)
-        if !(g.cmpge(Vec3::ZERO).all() && g.cmplt(Vec3::splat(AXIS_CELLS as f32)).all()) {
+        if !(g.cmpge(Vec3::ZERO).all() && g.cmplt(Vec3::splat(KEY_AXIS_CELLS as f32)).all()) {
             return None;
         }
-        let k = key(g.as_uvec3());
-        let mask = self.table.len() - 1;
-        let mut at = hash(k) & mask;
-        loop {
-            let entry = self.table[at];
-            if entry.key == k {
-                return Some(&self.candidates[entry.start as usize..(entry.start + entry.len) as usize]);
-            }
-            if entry.key == EMPTY {
-                return None;
-            }
-            at = (at + 1) & mask;
-        }
+        self.table.get(key(g.as_uvec3())).map(|range| &self.candidates[range])
     }
 
     /// Every listed cell's key and its candidates' slots, in table order.
     #[cfg(test)]
     pub(super) fn listed(&self) -> Vec<(u64, Vec<u32>)> {
-        let slots = |e: &Entry| {
-            self.candidates[e.start as usize..(e.start + e.len) as usize]
-                .iter()
-                .flat_map(|g| g.slots)
-                .collect()
-        };
-        self.table.iter().filter(|e| e.key != EMPTY).map(|e| (e.key, slots(e))).collect()
+        let slots =
+            |range: std::ops::Range<usize>| self.candidates[range].iter().flat_map(|g| g.slots).collect();
+        self.table.cells().into_iter().map(|(key, range)| (key, slots(range))).collect()
     }
 }
 
@@ -324,18 +285,4 @@ impl Cell {
         list.sort_unstable_by_key(|&(_, slot)| index[slot as usize]);
         list.chunks(4).map(Group::new).collect()
     }
-}
-
-fn key(cell: UVec3) -> u64 {
-    cell.x as u64 | (cell.y as u64) << 21 | (cell.z as u64) << 42
-}
-
-fn unkey(k: u64) -> UVec3 {
-    let mask = (1 << 21) - 1;
-    UVec3::new((k & mask) as u32, (k >> 21 & mask) as u32, (k >> 42 & mask) as u32)
-}
-
-/// Spreads a key's bits over the table (a multiplicative hash, top bits).
-fn hash(k: u64) -> usize {
-    (k.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) as usize
 }

@@ -172,7 +172,11 @@ pub fn load(path: &Path, scene: &Scene, config: &RenderConfig, diagonal: f32) ->
             differences.join(", ")
         )));
     }
-    r.maps().map_err(failed)
+    let mut maps = r.maps().map_err(failed)?;
+    // As `build_maps` makes them: cells for the caustic estimates' radius.
+    let radius = config.photons.caustic_estimate(diagonal).max_radius;
+    maps.caustic = maps.caustic.map(|map| map.with_cells_for(radius));
+    Ok(maps)
 }
 
 /// Little-endian output.

@@ -13,6 +13,7 @@ use std::num::NonZero;
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
+use super::grid::Grid;
 use super::guide::GatherGuide;
 use super::nearest::{Found, PointTree};
 use super::precompute::{precompute, record_in};
@@ -96,6 +97,9 @@ pub struct PhotonMap {
     search: Search,
     /// Irradiance precomputed at some photons (see [`PhotonMap::precompute_irradiance`]).
     precomputed: Option<Precomputed>,
+    /// Cells for the searches of one radius where photons are few (see
+    /// [`PhotonMap::with_cells_for`]).
+    grid: Option<Grid>,
 }
 
 /// What finds a map's photons near a point; both find the same nearest
@@ -222,7 +226,7 @@ impl PhotonMap {
     /// Panics beyond 2^32 photons (the settings cap photon counts far below).
     pub fn new(photons: Vec<Photon>) -> PhotonMap {
         let photons = in_morton_order(photons);
-        PhotonMap { search: Search::KdTree(kd_tree(&photons)), photons, precomputed: None }
+        PhotonMap { search: Search::KdTree(kd_tree(&photons)), photons, precomputed: None, grid: None }
     }
 
     /// A map for final gathering: [`PhotonMap::new`], then
@@ -233,7 +237,7 @@ impl PhotonMap {
         let photons = in_morton_order(photons);
         let runs = Runs::new(&photons);
         let precomputed = precompute(&photons, &runs, stride, estimate);
-        PhotonMap { photons, search: Search::Runs(runs), precomputed }
+        PhotonMap { photons, search: Search::Runs(runs), precomputed, grid: None }
     }
 
     /// A map for final gathering from its photons in the map's order (as
@@ -243,7 +247,21 @@ impl PhotonMap {
         // Photons already in Morton order stay in it.
         let photons = in_morton_order(photons);
         let runs = Runs::new(&photons);
-        PhotonMap { photons, search: Search::Runs(runs), precomputed: Some(Precomputed::new(records)) }
+        PhotonMap {
+            photons,
+            search: Search::Runs(runs),
+            precomputed: Some(Precomputed::new(records)),
+            grid: None,
+        }
+    }
+
+    /// The map, with its photons also in cells of edge `radius`, which
+    /// answer searches of that radius where photons are few (`grid.rs`):
+    /// for the estimates of one radius that most queries make.
+    pub fn with_cells_for(mut self, radius: f32) -> PhotonMap {
+        let positions: Vec<Vec3> = self.photons.iter().map(|p| p.position).collect();
+        self.grid = Grid::new(&positions, radius);
+        self
     }
 
     /// Estimates irradiance at every `stride`-th photon (in parallel) and
@@ -317,6 +335,9 @@ impl PhotonMap {
     /// The indices of up to `k` photons nearest `p` within `max_radius`,
     /// with their squared distances, nearest first.
     pub fn nearest(&self, p: Vec3, k: usize, max_radius: f32) -> Vec<(f32, usize)> {
+        if let Some(found) = self.grid.as_ref().and_then(|grid| grid.nearest(p, k, max_radius)) {
+            return found;
+        }
         let tree = match &self.search {
             Search::KdTree(tree) => tree,
             Search::Runs(runs) => return runs.nearest(p, k, max_radius),
@@ -558,6 +579,61 @@ mod tests {
                     |found: &[(f32, usize)]| found.iter().filter(|f| f.0 < last).copied().collect::<Vec<_>>();
                 assert_eq!(inside(&by_tree), inside(&by_runs), "{q} k {k} cap {max_radius}");
             }
+        }
+    }
+
+    #[test]
+    fn kiddo_and_the_cells_find_the_same_nearest_photons() {
+        // The caustic map answers searches of its estimates' radius from
+        // cells where photons are few, kiddo's tree elsewhere: the same
+        // photons either way, nearest first (the cells give the smaller
+        // index first among photons at exactly the same distance). Photons
+        // half on a lattice (ties), half random; radii up to the cells' edge,
+        // and beyond it (the tree answers); queries at photons, on the
+        // floor, above it and outside the grid.
+        let mut rng = Rng::new(9, 6);
+        let photons = Photon::on_lattice_and_scattered(6000, 50, &mut rng);
+        let tree = PhotonMap::new(photons.clone());
+        let celled = PhotonMap::new(photons).with_cells_for(0.05);
+        let grid = celled.grid.as_ref().expect("cells");
+        let mut from_cells = 0;
+        for j in 0..400 {
+            let q = match j % 4 {
+                0 => celled.photons()[j * 7].position,
+                1 => Vec3::new(rng.uniform(), 0.0, rng.uniform()),
+                2 => Vec3::new(rng.uniform(), rng.uniform() * 0.1, rng.uniform()),
+                _ => Vec3::new(rng.uniform() * 3.0 - 1.0, rng.uniform() - 0.5, rng.uniform() * 3.0 - 1.0),
+            };
+            for (k, max_radius) in [(1, 0.05), (20, 0.05), (60, 0.05), (100, 0.02), (100, 0.0), (20, 0.2)] {
+                let (by_tree, by_cells) = (tree.nearest(q, k, max_radius), celled.nearest(q, k, max_radius));
+                let answered = grid.nearest(q, k, max_radius).is_some();
+                from_cells += answered as usize;
+                let order = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+                assert!(
+                    !answered || by_cells.is_sorted_by(|a, b| order(a, b).is_lt()),
+                    "{q} k {k}: nearest first, ties by index"
+                );
+                let distances = |found: &[(f32, usize)]| found.iter().map(|f| f.0).collect::<Vec<_>>();
+                assert_eq!(distances(&by_tree), distances(&by_cells), "{q} k {k} radius {max_radius}");
+                // Those nearer than the last place: the same photons.
+                let last = by_cells.last().map_or(0.0, |f| f.0);
+                let inside = |found: &[(f32, usize)]| {
+                    let mut inside: Vec<_> = found.iter().filter(|f| f.0 < last).copied().collect();
+                    inside.sort_by(order);
+                    inside
+                };
+                assert_eq!(inside(&by_tree), inside(&by_cells), "{q} k {k} radius {max_radius}");
+            }
+        }
+        // The cells answered most searches within their edge on and near the floor.
+        assert!(from_cells > 1000, "{from_cells} searches from the cells");
+        // No cells where rounding could put a photon two cells off: too many
+        // cells from the origin, or no radius at all.
+        for radius in [1e-4, 0.0, f32::NAN] {
+            assert!(
+                PhotonMap::new(celled.photons().to_vec()).with_cells_for(radius).grid.is_none(),
+                "{radius}"
+            );
         }
     }
 

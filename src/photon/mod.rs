@@ -14,8 +14,10 @@
 //! from that light: physical units, no tuning constants. Each photon has its
 //! own random stream, so the maps do not depend on the thread count.
 
+mod cell_table;
 mod cells;
 pub mod file;
+mod grid;
 pub mod guide;
 pub mod map;
 pub mod nearest;
@@ -142,7 +144,12 @@ pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagon
                 false => PhotonMap::new(photons),
             })
         },
-        || caustic.map(PhotonMap::new),
+        // Most caustic estimates find few photons: cells answer them.
+        || {
+            caustic.map(|photons| {
+                PhotonMap::new(photons).with_cells_for(settings.caustic_estimate(diagonal).max_radius)
+            })
+        },
     );
     stats.build_seconds = start.elapsed().as_secs_f64();
     PhotonMaps { global, caustic, for_gathering, stats }

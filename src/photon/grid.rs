@@ -1,0 +1,130 @@
+//! A uniform grid over a map's photons for its estimates where light is
+//! thin: "the up to `k` photons nearest a point within a radius `r`", when
+//! fewer than a few hundred photons lie near it.
+//!
+//! Most caustic-map estimates are such: under the point-lit Cornell box 94%
+//! of them find fewer than `k` photons within the radius (counted, issue
+//! 17). A kd-tree walks down to them and back; here the cells are a little
+//! wider than `r`, so the 27 around the query's cell hold every photon
+//! within `r` (rounding included), and the
+//! photons of a cell lie side by side. Where the cells around a query hold
+//! many photons (in a caustic's focus), the kd-tree answers instead.
+//!
+//! The answer is the kd-tree's: the same photons, the same squared
+//! distances (`(p - q).length_squared()`, the order of kiddo's sum), nearest
+//! first; among photons at exactly equal distances the smaller index first.
+
+use glam::{IVec3, Vec3};
+
+use super::cell_table::{key, points_by_cell, CellTable};
+use super::runs;
+
+/// The most photons the cells around a query may hold for the grid to
+/// answer (beyond, the kd-tree is faster).
+const MOST_SCANNED: usize = 512;
+
+/// How far from the origin, in cells, a grid may reach: a point's place
+/// in cells is then off by at most a few thousandths of a cell (a few ulps
+/// of 2^13), within the widening of [`EDGE_PER_RADIUS`].
+const AXIS_CELLS: f32 = (1 << 12) as f32;
+
+/// A cell's edge, in the radius it answers for: the hundredth beyond covers
+/// a photon and a query each put in a cell off by rounding.
+const EDGE_PER_RADIUS: f32 = 1.01;
+
+/// Photons by grid cell, for searches of radius up to `radius`.
+pub(super) struct Grid {
+    origin: Vec3,
+    radius: f32,
+    inverse_edge: f32,
+    /// Each cell's range in `photons`.
+    table: CellTable,
+    /// Positions and indices, cell by cell, by index within a cell.
+    photons: Vec<(Vec3, u32)>,
+}
+
+impl Grid {
+    /// The grid for searches up to `radius` over `positions` (their indices
+    /// in the order given), or `None` if the radius is not positive and
+    /// finite or the coordinates are too many cells from the origin for
+    /// rounding to leave each point in its cell or the next.
+    pub(super) fn new(positions: &[Vec3], radius: f32) -> Option<Grid> {
+        let edge = radius * EDGE_PER_RADIUS;
+        if positions.is_empty() || !(edge.is_finite() && edge > 0.0) || positions.len() >= u32::MAX as usize {
+            return None;
+        }
+        let (lo, hi) = positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let origin = lo - Vec3::splat(2.0 * edge);
+        let reach = origin.abs().max(hi.abs() + Vec3::splat(2.0 * edge)).max_element() / edge;
+        if reach.is_nan() || reach >= AXIS_CELLS {
+            return None;
+        }
+        let inverse_edge = 1.0 / edge;
+        let keyed = points_by_cell(positions, origin, inverse_edge);
+        let cells: Vec<&[(u64, u32)]> = keyed.chunk_by(|a, b| a.0 == b.0).collect();
+        let mut ranges = Vec::with_capacity(cells.len());
+        let mut photons = Vec::with_capacity(positions.len());
+        for cell in cells {
+            ranges.push((cell[0].0, photons.len() as u32, cell.len() as u32));
+            photons.extend(cell.iter().map(|&(_, i)| (positions[i as usize], i)));
+        }
+        let table = CellTable::new(&ranges);
+        Some(Grid { origin, radius, inverse_edge, table, photons })
+    }
+
+    /// The up to `k` photons nearest `q` within `max_radius`, as (squared
+    /// distance, index), nearest first; `None` when the grid cannot answer
+    /// (a radius beyond the one it was made for, a query outside it, or too
+    /// many photons around it).
+    pub(super) fn nearest(&self, q: Vec3, k: usize, max_radius: f32) -> Option<Vec<(f32, usize)>> {
+        if max_radius.is_nan() || max_radius > self.radius || k == 0 {
+            return None;
+        }
+        // Queries beyond the photons' box by more than a cell find none of
+        // them in the cells around (and those far off would hash wrongly).
+        let g = (q - self.origin) * self.inverse_edge;
+        if !(g.cmpge(Vec3::ONE).all() && g.cmplt(Vec3::splat(2.0 * AXIS_CELLS)).all()) {
+            return None;
+        }
+        let centre = g.floor().as_ivec3();
+        let mut ranges: [std::ops::Range<usize>; 27] = Default::default();
+        let mut count = 0;
+        let mut scanned = 0;
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    if let Some(range) = self.table.get(key_of(centre + IVec3::new(dx, dy, dz))) {
+                        scanned += range.len();
+                        ranges[count] = range;
+                        count += 1;
+                    }
+                }
+            }
+        }
+        if scanned > MOST_SCANNED {
+            return None;
+        }
+        let r2 = max_radius * max_radius;
+        let mut found: Vec<u64> = Vec::with_capacity(k.min(64));
+        for range in &ranges[..count] {
+            for &(p, i) in &self.photons[range.clone()] {
+                let d2 = (p - q).length_squared();
+                if d2 <= r2 {
+                    found.push(runs::key(d2, i as usize));
+                }
+            }
+        }
+        if found.len() > k {
+            found.select_nth_unstable(k - 1);
+            found.truncate(k);
+        }
+        found.sort_unstable();
+        Some(found.into_iter().map(runs::unkey).collect())
+    }
+}
+
+fn key_of(cell: IVec3) -> u64 {
+    key(cell.as_uvec3())
+}
