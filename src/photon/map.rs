@@ -6,7 +6,9 @@
 //! precomputed at some of its photons, which range searches over runs of the
 //! photons find (`runs.rs`); it keeps those runs for its rare full estimates
 //! (where no record covers a point) instead of also building a kd-tree that
-//! would answer a few hundred searches a render.
+//! would answer a few hundred searches a render. Its records are found in
+//! grid cells (`cells.rs`); the caustic map's estimates, most of which find
+//! few photons, in grid cells of their radius too (`grid.rs`).
 
 use std::num::NonZero;
 
@@ -255,9 +257,10 @@ impl PhotonMap {
         }
     }
 
-    /// The map, with its photons also in cells of edge `radius`, which
-    /// answer searches of that radius where photons are few (`grid.rs`):
-    /// for the estimates of one radius that most queries make.
+    /// The map, with its photons also in grid cells a little wider than
+    /// `radius`, which answer searches up to that radius where photons are
+    /// few (`grid.rs`): for the estimates of one radius that most queries
+    /// make (the caustic map's).
     pub fn with_cells_for(mut self, radius: f32) -> PhotonMap {
         let positions: Vec<Vec3> = self.photons.iter().map(|p| p.position).collect();
         self.grid = Grid::new(&positions, radius);
