@@ -6,9 +6,9 @@
 //! of them find fewer than `k` photons within the radius (counted, issue
 //! 17). A kd-tree walks down to them and back; here the cells are a little
 //! wider than `r`, so the 27 around the query's cell hold every photon
-//! within `r` (rounding included), and the
-//! photons of a cell lie side by side. Where the cells around a query hold
-//! many photons (in a caustic's focus), the kd-tree answers instead.
+//! within `r` (rounding included), and the photons of a cell lie side by
+//! side. Where the cells around a query hold many photons (in a caustic's
+//! focus), the kd-tree answers instead.
 //!
 //! The answer is the kd-tree's: the same photons, the same squared
 //! distances (`(p - q).length_squared()`, the order of kiddo's sum), nearest
@@ -23,9 +23,10 @@ use super::runs;
 /// answer (beyond, the kd-tree is faster).
 const MOST_SCANNED: usize = 512;
 
-/// How far from the origin, in cells, a grid may reach: a point's place
-/// in cells is then off by at most a few thousandths of a cell (a few ulps
-/// of 2^13), within the widening of [`EDGE_PER_RADIUS`].
+/// How far from the origin, in cells, a grid may reach (queries twice as
+/// far): a point's place in cells is then off by at most a few thousandths
+/// of a cell (a few ulps of 2^13), within the widening of
+/// [`EDGE_PER_RADIUS`].
 const AXIS_CELLS: f32 = (1 << 12) as f32;
 
 /// A cell's edge, in the radius it answers for: the hundredth beyond covers
