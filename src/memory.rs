@@ -32,9 +32,16 @@ const PHOTON_BYTES: u64 =
     2 * std::mem::size_of::<crate::photon::Photon>() as u64 + 17 + IRRADIANCE_RECORD_BYTES.div_ceil(4);
 
 /// Bytes per precomputed irradiance record: about 45 B in its nearest-point
-/// tree, and its gather guide.
+/// tree, its gather guide, and about 60 B in the grid cells that list it
+/// (`photon/cells.rs`: 52 B of candidates and the table, measured on the
+/// teapot, with a margin).
 const IRRADIANCE_RECORD_BYTES: u64 =
-    45 + std::mem::size_of::<Option<crate::photon::guide::GatherGuide>>() as u64;
+    45 + 64 + std::mem::size_of::<Option<crate::photon::guide::GatherGuide>>() as u64;
+
+/// Bytes per caustic photon in the caustic map's grid (`photon/grid.rs`):
+/// its position and index, and while it is built 16 B of cell keys; the
+/// table's share.
+const CAUSTIC_GRID_BYTES: u64 = 16 + 16 + 8;
 
 /// Bytes per photon of SPPM's density batch (for the starting radii): its
 /// position, twice while the chunks are joined, and its place in the tree.
@@ -66,7 +73,8 @@ impl Estimate {
             IntegratorKind::Photon => {
                 let stored = p.global_photons as f64 * stores_per_photon(scene, p.max_bounces)
                     + p.caustic_photons as f64;
-                (pixels * FILM_BYTES_PER_PIXEL, (stored * PHOTON_BYTES as f64) as u64)
+                let grid = p.caustic_photons as u64 * CAUSTIC_GRID_BYTES;
+                (pixels * FILM_BYTES_PER_PIXEL, (stored * PHOTON_BYTES as f64) as u64 + grid)
             }
             // One pass's splats, not a map: a few per photon; and, without
             // a starting radius, where a pass's photons landed, kept for the
