@@ -27,6 +27,8 @@
 use glam::{DVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
+use crate::bounds::Bounds;
+
 use super::cell_table::{key, points_by_cell, unkey, CellTable, KEY_AXIS_CELLS};
 
 /// A cell is listed only if this many points or fewer can be its nearest.
@@ -117,18 +119,14 @@ impl Cells {
         if points.is_empty() || !(size.is_finite() && size > 0.0) {
             return None;
         }
-        let (lo, hi) =
-            points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let Bounds { min: lo, max: hi } = Bounds::of(points);
         let largest = lo.abs().max(hi.abs()).max_element();
         // With cells of at least a thousandth of the coordinates, the grid
-        // spans a few thousand cells, and rounding misplaces a query by at
-        // most a few ten-thousandths of one: within the thousandth `Cell`
-        // widens by. Squared distances stay normal and finite.
-        if !(largest.is_finite() && largest <= 1e15)
-            || size < 1e-3 * largest
-            || size < 1e-12
-            || ((hi - lo) / size).max_element() >= (KEY_AXIS_CELLS - 4) as f32
-        {
+        // spans a few thousand cells (far fewer than a key can tell apart),
+        // and rounding misplaces a query by at most a few ten-thousandths of
+        // one: within the thousandth `Cell` widens by. Squared distances
+        // stay normal and finite.
+        if !(largest.is_finite() && largest <= 1e15) || size < 1e-3 * largest || size < 1e-12 {
             return None;
         }
         let origin = lo - Vec3::splat(size);

@@ -173,9 +173,7 @@ pub fn load(path: &Path, scene: &Scene, config: &RenderConfig, diagonal: f32) ->
         )));
     }
     let mut maps = r.maps().map_err(failed)?;
-    // As `build_maps` makes them: cells for the caustic estimates' radius.
-    let radius = config.photons.caustic_estimate(diagonal).max_radius;
-    maps.caustic = maps.caustic.map(|map| map.with_cells_for(radius));
+    maps.caustic = maps.caustic.map(|map| super::with_caustic_cells(map, &config.photons, diagonal));
     Ok(maps)
 }
 

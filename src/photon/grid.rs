@@ -16,6 +16,8 @@
 
 use glam::{IVec3, Vec3};
 
+use crate::bounds::Bounds;
+
 use super::cell_table::{key, points_by_cell, CellTable};
 use super::runs;
 
@@ -54,9 +56,7 @@ impl Grid {
         if positions.is_empty() || !(edge.is_finite() && edge > 0.0) || positions.len() >= u32::MAX as usize {
             return None;
         }
-        let (lo, hi) = positions
-            .iter()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let Bounds { min: lo, max: hi } = Bounds::of(positions);
         let origin = lo - Vec3::splat(2.0 * edge);
         let reach = origin.abs().max(hi.abs() + Vec3::splat(2.0 * edge)).max_element() / edge;
         if reach.is_nan() || reach >= AXIS_CELLS {

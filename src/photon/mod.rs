@@ -144,15 +144,17 @@ pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagon
                 false => PhotonMap::new(photons),
             })
         },
-        // Most caustic estimates find few photons: cells answer them.
-        || {
-            caustic.map(|photons| {
-                PhotonMap::new(photons).with_cells_for(settings.caustic_estimate(diagonal).max_radius)
-            })
-        },
+        || caustic.map(|photons| with_caustic_cells(PhotonMap::new(photons), settings, diagonal)),
     );
     stats.build_seconds = start.elapsed().as_secs_f64();
     PhotonMaps { global, caustic, for_gathering, stats }
+}
+
+/// The caustic map with cells for its estimates' radius: most caustic
+/// estimates find few photons, and the cells answer those (`grid.rs`).
+/// Built maps and loaded ones both come through here.
+pub(crate) fn with_caustic_cells(map: PhotonMap, settings: &PhotonConfig, diagonal: f32) -> PhotonMap {
+    map.with_cells_for(settings.caustic_estimate(diagonal).max_radius)
 }
 
 /// Bounding spheres of the meshes with mirror or glass parts: where caustic
