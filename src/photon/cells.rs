@@ -15,7 +15,7 @@
 //! box: those are the candidates, with `r` the one that makes `U` least.
 //! Of them, a point that another is nearer than everywhere in the box is
 //! dropped (the difference of two squared distances is affine in `q`, so
-//! it suffices that it holds at the corners). The answer is then the one
+//! its least over the box has a closed form). The answer is then the one
 //! the kd-tree gives, to the bit: the same squared distances, in the same
 //! order of operations, ties to the smaller index. The boxes, `U` and the
 //! test of being beaten are widened by margins beyond what rounding in a
@@ -241,41 +241,41 @@ impl Cell {
         let reach2 = list.iter().map(|&(p, _)| self.reach2(p)).fold(reach2, f32::min);
         list.retain(|&(p, _)| self.distance2(p) <= reach2);
         // The few nearest the centre first, in order: only a point nearer
-        // the centre can be nearer than another everywhere in the box.
-        let by_centre = |a: &(Vec3, u32), b: &(Vec3, u32)| {
-            (a.0 - centre).length_squared().total_cmp(&(b.0 - centre).length_squared()).then(a.1.cmp(&b.1))
+        // the centre can be nearer than another everywhere in the box. Each
+        // point's key orders by squared distance to the centre, then slot
+        // (for floats not negative, the bits order as the values).
+        let by_centre = |&(p, slot): &(Vec3, u32)| {
+            u64::from((p - centre).length_squared().to_bits()) << 32 | u64::from(slot)
         };
+        let mut list: Vec<(u64, Vec3, u32)> =
+            list.iter().map(|entry| (by_centre(entry), entry.0, entry.1)).collect();
         if list.len() > DOMINATORS {
-            list.select_nth_unstable_by(DOMINATORS, by_centre);
+            list.select_nth_unstable_by_key(DOMINATORS, |entry| entry.0);
         }
         let dominators = DOMINATORS.min(list.len());
-        list[..dominators].sort_unstable_by(by_centre);
-        // The difference of two points' squared distances is affine, so
-        // least at a corner: a point is beaten everywhere when it is beaten
-        // at every corner (in f64, by a margin, so that rounding in a query
-        // cannot disagree). Only the few nearest the centre are tried as
-        // beating the others: they beat almost all that are beaten, and a
-        // point kept that could go costs a lane, never an answer.
-        let corners: [DVec3; 8] = std::array::from_fn(|i| {
-            let pick = |bit: usize, lo: f32, hi: f32| f64::from(if i >> bit & 1 == 0 { lo } else { hi });
-            DVec3::new(
-                pick(0, self.lo.x, self.hi.x),
-                pick(1, self.lo.y, self.hi.y),
-                pick(2, self.lo.z, self.hi.z),
-            )
-        });
+        list[..dominators].sort_unstable_by_key(|entry| entry.0);
+        // Only the few nearest the centre are tried as beating the others:
+        // they beat almost all that are beaten, and a point kept that could
+        // go costs a lane, never an answer. `d` is nearer than `p` everywhere
+        // in the box when `|q - p|^2 - |q - d|^2`, affine in `q` with
+        // gradient `2 (d - p)`, is positive at its least over the box: its
+        // value at the centre less `2 h . |d - p|` (`h` the half edges).
+        // In f64 and by a margin, so that rounding in a query cannot
+        // disagree.
+        let (lo, hi) = (self.lo.as_dvec3(), self.hi.as_dvec3());
+        let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
         let margin = f64::from(self.margin2);
-        let to_corners: Vec<[f64; 8]> = list
-            .iter()
-            .map(|&(p, _)| std::array::from_fn(|c| (corners[c] - p.as_dvec3()).length_squared()))
-            .collect();
-        let beaten = |r: &[f64; 8], by: &[f64; 8]| r.iter().zip(by).all(|(r, by)| r - by > margin);
+        let exact: Vec<(DVec3, f64)> =
+            list.iter().map(|&(_, p, _)| (p.as_dvec3(), (p.as_dvec3() - mid).length_squared())).collect();
+        let beaten = |(p, p_centre2): (DVec3, f64), (d, d_centre2): (DVec3, f64)| {
+            p_centre2 - d_centre2 - 2.0 * half.dot((d - p).abs()) > margin
+        };
         let mut list: Vec<(Vec3, u32)> = list
             .iter()
-            .zip(&to_corners)
+            .zip(&exact)
             .enumerate()
-            .filter(|&(i, (_, r))| !to_corners[..i.min(DOMINATORS)].iter().any(|by| beaten(r, by)))
-            .map(|(_, (&entry, _))| entry)
+            .filter(|&(i, (_, &p))| !exact[..i.min(DOMINATORS)].iter().any(|&d| beaten(p, d)))
+            .map(|(_, (&(_, p, slot), _))| (p, slot))
             .collect();
         if list.len() > LONGEST_LIST {
             return Vec::new();
