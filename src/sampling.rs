@@ -154,13 +154,28 @@ impl Sobol {
     /// point at `index` with each coordinate Owen-scrambled, each with its
     /// own seed. The x coordinate is `index` reversed, so scrambling it
     /// starts from `index` itself.
+    #[inline]
     fn next_pair(&mut self) -> Vec2 {
-        let seed = mix(self.seed, self.pair);
-        self.pair += 1;
-        let index = scramble_reversed(self.index_reversed, mix(seed, 1));
+        let (seed, index) = self.next_index();
         let x = scramble_reversed(index, mix(seed, 2));
         let y = scramble_reversed(sobol_second_reversed(index), mix(seed, 3));
         Vec2::new(fraction(x), fraction(y))
+    }
+
+    /// The x coordinate of [`Sobol::next_pair`] alone (a pair used for one
+    /// number): the y coordinate's scramble and table lookups skipped.
+    #[inline]
+    fn next_one(&mut self) -> f32 {
+        let (seed, index) = self.next_index();
+        fraction(scramble_reversed(index, mix(seed, 2)))
+    }
+
+    /// The next pair's seed and its scrambled index.
+    #[inline]
+    fn next_index(&mut self) -> (u32, u32) {
+        let seed = mix(self.seed, self.pair);
+        self.pair += 1;
+        (seed, scramble_reversed(self.index_reversed, mix(seed, 1)))
     }
 }
 
@@ -201,7 +216,7 @@ impl Rng {
     /// the next dimension pair).
     pub fn uniform(&mut self) -> f32 {
         match &mut self.sobol {
-            Some(sobol) => sobol.next_pair().x,
+            Some(sobol) => sobol.next_one(),
             None => fraction(self.next_u32()),
         }
     }
