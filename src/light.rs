@@ -39,6 +39,23 @@ pub struct EmissionPdfs {
     pub cos: f32,
 }
 
+/// What an area light's shading asks of its shape at every ray and sample,
+/// worked out once when the light is made: its normal and area (in `f64`,
+/// exact at any size: two square roots and a division a call otherwise),
+/// its edges' squared lengths, and the radiance it leaves with. Made only
+/// by [`Light::area`], so it always matches the light's edges and power.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AreaFace {
+    /// Unit normal on the emitting side (`u x v`).
+    normal: Vec3,
+    /// Area, `|u x v|`.
+    area: f64,
+    /// `|u|^2` and `|v|^2`.
+    length2: (f64, f64),
+    /// Radiance leaving the front: `power / (pi area)`.
+    radiance: Vec3,
+}
+
 /// A light source.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Light {
@@ -60,6 +77,8 @@ pub enum Light {
         v: Vec3,
         /// Total emitted power (W per channel).
         power: Vec3,
+        /// What shading needs of the shape, worked out once ([`Light::area`]).
+        face: AreaFace,
     },
     /// A point light restricted to a cone, with a smooth fall-off at its edge.
     Spot {
@@ -77,6 +96,19 @@ pub enum Light {
 }
 
 impl Light {
+    /// The one-sided parallelogram light centred at `center` with full
+    /// edges `u` and `v`, emitting `power` from the side `u x v` faces.
+    pub fn area(center: Vec3, u: Vec3, v: Vec3, power: Vec3) -> Light {
+        let area = numeric::cross_length(u, v);
+        let face = AreaFace {
+            normal: numeric::unit_cross(u, v).unwrap_or(Vec3::ZERO),
+            area,
+            length2: (u.as_dvec3().length_squared(), v.as_dvec3().length_squared()),
+            radiance: (power.as_dvec3() / (std::f64::consts::PI * area)).as_vec3(),
+        };
+        Light::Area { center, u, v, power, face }
+    }
+
     /// Total emitted power (W per channel).
     pub fn power(&self) -> Vec3 {
         match self {
@@ -101,11 +133,11 @@ impl Light {
                 let (_, intensity) = self.intensity((to_p / d2.sqrt()).as_vec3())?;
                 Some(LightSample { position, irradiance: (intensity.as_dvec3() / d2).as_vec3() })
             }
-            Light::Area { center, u: eu, v: ev, power } => {
+            Light::Area { center, u: eu, v: ev, power, face } => {
                 // Uniform over the area (pdf 1/A) of a Lambertian emitter with
                 // radiance L = power / (pi A): E = L cos_l A / d^2 = power cos_l / (pi d^2).
                 let position = center + (u.x - 0.5) * eu + (u.y - 0.5) * ev;
-                let (normal, _) = area_face(eu, ev);
+                let normal = face.normal;
                 let to_p = (p - position).as_dvec3();
                 let d2 = to_p.length_squared();
                 let cos_l = normal.as_dvec3().dot(to_p) / d2.sqrt();
@@ -119,8 +151,8 @@ impl Light {
     /// `ray.t_max`: the ray parameter and the radiance leaving towards the ray.
     /// Only area lights have a surface to hit.
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, Vec3)> {
-        let Light::Area { center, u, v, power } = *self else { return None };
-        let (normal, area) = area_face(u, v);
+        let Light::Area { center, u, v, face, .. } = *self else { return None };
+        let normal = face.normal;
         let facing = ray.dir.dot(normal);
         if facing >= 0.0 {
             return None; // parallel, or arriving at the back, which does not emit
@@ -131,9 +163,9 @@ impl Light {
         }
         // Where on the light, in units of its edges (in f64: tiny edges' squares underflow).
         let local = (ray.at(t) - center).as_dvec3();
-        let along = |e: Vec3| local.dot(e.as_dvec3()) / e.as_dvec3().length_squared();
-        let radiance = (power.as_dvec3() / (std::f64::consts::PI * area)).as_vec3();
-        (along(u).abs() <= 0.5 && along(v).abs() <= 0.5).then_some((t, radiance))
+        let along = |e: Vec3, length2: f64| local.dot(e.as_dvec3()) / length2;
+        let (u_length2, v_length2) = face.length2;
+        (along(u, u_length2).abs() <= 0.5 && along(v, v_length2).abs() <= 0.5).then_some((t, face.radiance))
     }
 
     /// Emits one photon from the uniforms `u` (position on the light) and `v`
@@ -147,9 +179,9 @@ impl Light {
     pub fn emit(&self, u: Vec2, v: Vec2) -> (Ray, Vec3) {
         match *self {
             Light::Point { position, power } => (Ray::new(position, uniform_sphere(v)), power),
-            Light::Area { center, u: eu, v: ev, power } => {
+            Light::Area { center, u: eu, v: ev, power, face } => {
                 let on = center + (u.x - 0.5) * eu + (u.y - 0.5) * ev;
-                let (normal, _) = area_face(eu, ev);
+                let normal = face.normal;
                 let dir = around(normal, cosine_hemisphere(v));
                 // Leave from just in front of the light, by more than the
                 // rounding error of the point on it: a surface flush with the
@@ -190,8 +222,7 @@ impl Light {
     /// (uniformly by area): `d^2 / (A cos_l)`. 0 for point and spot lights,
     /// and behind the light.
     pub fn pdf_solid_angle(&self, on: Vec3, from: Vec3) -> f32 {
-        let Light::Area { u, v, .. } = *self else { return 0.0 };
-        let (normal, area) = area_face(u, v);
+        let Light::Area { face: AreaFace { normal, area, .. }, .. } = *self else { return 0.0 };
         let to = (from - on).as_dvec3();
         let d2 = to.length_squared();
         let cos_l = normal.as_dvec3().dot(to) / d2.sqrt();
@@ -214,8 +245,7 @@ impl Light {
                 let emit = if inside { 1.0 / (2.0 * PI * one_minus_cos) } else { 0.0 };
                 EmissionPdfs { direct_area: 1.0, emit, cos: 1.0 }
             }
-            Light::Area { u, v, .. } => {
-                let (normal, area) = area_face(u, v);
+            Light::Area { face: AreaFace { normal, area, .. }, .. } => {
                 let cos = normal.dot(dir);
                 let direct_area = (1.0 / area) as f32;
                 let emit = if cos > 0.0 { direct_area * cos * std::f32::consts::FRAC_1_PI } else { 0.0 };
@@ -231,12 +261,12 @@ impl Light {
         let at = |p: Vec3| (p.as_dvec3() + origin).as_vec3();
         match self {
             Light::Point { position, .. } => format!("point at {}, power {w} W", at(*position)),
-            Light::Area { center, u, v, .. } => format!(
+            Light::Area { center, u, v, face, .. } => format!(
                 "area {:.3} x {:.3} at {}, facing {}, power {w} W",
                 u.length(),
                 v.length(),
                 at(*center),
-                crate::numeric::unit_cross(*u, *v).unwrap_or(Vec3::ZERO)
+                face.normal
             ),
             Light::Spot { position, direction, cone_angle, .. } => format!(
                 "spot at {} towards {direction}, cone {:.1} deg, power {w} W",
@@ -254,12 +284,6 @@ pub fn nearest_emitter<'a>(lights: &'a [Light], ray: &Ray) -> Option<(&'a Light,
         .iter()
         .filter_map(|light| light.intersect(ray).map(|(t, radiance)| (light, t, radiance)))
         .min_by(|a, b| a.1.total_cmp(&b.1))
-}
-
-/// An area light's unit normal (the side `u x v` faces) and its area, exact
-/// at any size (see [`crate::numeric`]).
-fn area_face(u: Vec3, v: Vec3) -> (Vec3, f64) {
-    (numeric::unit_cross(u, v).unwrap_or(Vec3::ZERO), numeric::cross_length(u, v))
 }
 
 /// The smooth edge of a spot light with unit `axis`, towards the unit
@@ -305,8 +329,7 @@ mod tests {
     #[test]
     fn area_light_irradiance_matches_the_form_factor() {
         let (w, h, d) = (1.0f32, 0.5f32, 0.8f32);
-        let light =
-            Light::Area { center: Vec3::Y * d, u: Vec3::X * w, v: Vec3::Z * h, power: Vec3::splat(10.0) };
+        let light = Light::area(Vec3::Y * d, Vec3::X * w, Vec3::Z * h, Vec3::splat(10.0));
         // u x v = X x Z = -Y: facing down at the origin.
         let radiance = 10.0 / (PI * w * h);
         let analytic = PI * radiance * 4.0 * corner_form_factor(w / 2.0, h / 2.0, d);
@@ -337,7 +360,7 @@ mod tests {
                 falloff_start: 0.3,
                 power: Vec3::splat(3.0),
             },
-            Light::Area { center: Vec3::ONE, u: Vec3::X * 0.5, v: Vec3::Z * 2.0, power: Vec3::splat(5.0) },
+            Light::area(Vec3::ONE, Vec3::X * 0.5, Vec3::Z * 2.0, Vec3::splat(5.0)),
         ];
         let mut rng = Rng::new(4, 0);
         for light in &lights {
@@ -395,7 +418,7 @@ mod tests {
     fn emitted_photons_carry_the_lights_power() {
         let lights = [
             Light::Point { position: Vec3::ZERO, power: Vec3::new(1.0, 2.0, 3.0) },
-            Light::Area { center: Vec3::Y, u: Vec3::X, v: Vec3::Z, power: Vec3::splat(7.0) },
+            Light::area(Vec3::Y, Vec3::X, Vec3::Z, Vec3::splat(7.0)),
             Light::Spot {
                 position: Vec3::ZERO,
                 direction: Vec3::Y,
@@ -412,7 +435,7 @@ mod tests {
                 power: Vec3::splat(5.0),
             },
             // An area light whose u x v underflows in f32 (it used to give NaN).
-            Light::Area { center: Vec3::Y, u: Vec3::X, v: Vec3::Z * 1e-25, power: Vec3::splat(7.0) },
+            Light::area(Vec3::Y, Vec3::X, Vec3::Z * 1e-25, Vec3::splat(7.0)),
         ];
         for light in lights {
             let mut rng = Rng::new(9, 9);
@@ -444,7 +467,7 @@ mod tests {
 
     #[test]
     fn rays_see_the_front_of_an_area_light_only() {
-        let light = Light::Area { center: Vec3::Y, u: Vec3::X, v: Vec3::Z, power: Vec3::splat(PI) };
+        let light = Light::area(Vec3::Y, Vec3::X, Vec3::Z, Vec3::splat(PI));
         let up = Ray::new(Vec3::new(0.2, 0.0, -0.3), Vec3::Y);
         let (t, radiance) = light.intersect(&up).unwrap();
         assert!((t - 1.0).abs() < 1e-6 && (radiance.x - 1.0).abs() < 1e-6);

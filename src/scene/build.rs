@@ -200,12 +200,7 @@ impl Builder<'_> {
             if crate::numeric::unit_cross(l.u.get_ref().0, l.v.0).is_none() {
                 return Err(self.error_at(l.u.span(), "the area light's edges u and v are zero or parallel"));
             }
-            lights.push(Light::Area {
-                center: self.place(l.center),
-                u: l.u.get_ref().0,
-                v: l.v.0,
-                power: l.power.0,
-            });
+            lights.push(Light::area(self.place(l.center), l.u.get_ref().0, l.v.0, l.power.0));
         }
         for l in &f.spot_light {
             lights.push(self.spot_light(l)?);
