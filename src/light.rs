@@ -43,7 +43,9 @@ pub struct EmissionPdfs {
 /// worked out once when the light is made: its normal and area (in `f64`,
 /// exact at any size: two square roots and a division a call otherwise),
 /// its edges' squared lengths, and the radiance it leaves with. Made only
-/// by [`Light::area`], so it always matches the light's edges and power.
+/// by [`Light::area`], from the edges and power it is given; a light whose
+/// edges or power are changed in place keeps the old numbers, so make a
+/// new one with [`Light::area`] instead.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AreaFace {
     /// Unit normal on the emitting side (`u x v`).
