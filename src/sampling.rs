@@ -367,6 +367,11 @@ mod tests {
             for pair in 0..4 {
                 assert_eq!(sobol.next_pair(), by_definition(seed, index, pair));
             }
+            // One number alone is its pair's x coordinate, and uses up the pair.
+            let mut sobol = Sobol { index_reversed: index.reverse_bits(), seed, pair: 0 };
+            for pair in 0..4 {
+                assert_eq!(sobol.next_one(), by_definition(seed, index, pair).x);
+            }
         }
     }
 
