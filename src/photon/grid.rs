@@ -117,12 +117,7 @@ impl Grid {
                 }
             }
         }
-        if found.len() > k {
-            found.select_nth_unstable(k - 1);
-            found.truncate(k);
-        }
-        found.sort_unstable();
-        Some(found.into_iter().map(runs::unkey).collect())
+        Some(runs::nearest_first(found, k))
     }
 }
 

@@ -118,12 +118,7 @@ impl Runs {
         let max_r2 = max_radius * max_radius;
         let mut keys = Vec::new();
         self.holding_k(q, k, max_r2 / 16.0, max_r2, &mut keys);
-        if keys.len() > k {
-            keys.select_nth_unstable(k - 1);
-            keys.truncate(k);
-        }
-        keys.sort_unstable();
-        keys.into_iter().map(unkey).collect()
+        nearest_first(keys, k)
     }
 
     fn visit(&self, level: usize, node: usize, q: Vec3, r2: f32, found: &mut Vec<u64>) {
@@ -173,6 +168,19 @@ impl Runs {
 /// bits is the order of their values.
 pub(super) fn key(distance2: f32, index: usize) -> u64 {
     (u64::from(distance2.to_bits()) << 32) | index as u64
+}
+
+/// The `k` least of `keys` (all of them if fewer), least first, as
+/// (squared distance, index): nearest first, ties to the smaller index.
+pub(super) fn nearest_first(mut keys: Vec<u64>, k: usize) -> Vec<(f32, usize)> {
+    if keys.len() > k {
+        if k > 0 {
+            keys.select_nth_unstable(k - 1);
+        }
+        keys.truncate(k);
+    }
+    keys.sort_unstable();
+    keys.into_iter().map(unkey).collect()
 }
 
 /// The squared distance and index of a [`key`].
