@@ -237,7 +237,7 @@ impl PhotonMap {
     /// build was a tenth of the teapot's at 1M photons, BENCHMARKS.md).
     pub fn with_irradiance(photons: Vec<Photon>, stride: usize, estimate: &Estimate) -> PhotonMap {
         let photons = in_morton_order(photons);
-        let runs = Runs::new(&photons);
+        let runs = Runs::new(&photons, |photon| photon.position);
         let precomputed = precompute(&photons, &runs, stride, estimate);
         PhotonMap { photons, search: Search::Runs(runs), precomputed, grid: None }
     }
@@ -248,7 +248,7 @@ impl PhotonMap {
     pub(crate) fn with_records(photons: Vec<Photon>, records: Vec<IrradianceRecord>) -> PhotonMap {
         // Photons already in Morton order stay in it.
         let photons = in_morton_order(photons);
-        let runs = Runs::new(&photons);
+        let runs = Runs::new(&photons, |photon| photon.position);
         PhotonMap {
             photons,
             search: Search::Runs(runs),
@@ -274,7 +274,7 @@ impl PhotonMap {
         let runs = match &self.search {
             Search::Runs(runs) => runs,
             Search::KdTree(_) => {
-                built = Runs::new(&self.photons);
+                built = Runs::new(&self.photons, |photon| photon.position);
                 &built
             }
         };
@@ -455,7 +455,7 @@ pub(super) fn close_disc(found: &mut Vec<(f32, usize)>, estimate: &Estimate) -> 
 /// only one copy of them kept.
 fn in_morton_order(photons: Vec<Photon>) -> Vec<Photon> {
     use rayon::prelude::*;
-    let order = morton_order(&photons);
+    let order = morton_order(&photons, |photon| photon.position);
     order.par_iter().map(|&key| photons[index_of(key)]).collect()
 }
 
@@ -468,20 +468,20 @@ fn kd_tree(photons: &[Photon]) -> Option<ImmutableKdTree<f32, 3>> {
 
 /// The photons in the order of a Morton (Z-order) curve through their
 /// bounding box, 10 bits per axis: photons close in space come close in the
-/// order. Each is given by its curve code above its index (see
+/// order (of any items with a `position`). Each is given by its curve code above its index (see
 /// [`index_of`]), so that ties keep their index order. (Keys, not indices,
 /// and no copy of the positions: fresh memory costs about 3 us a page to
 /// map on the machines measured, a tenth of the map's build.)
 ///
 /// Panics beyond 2^32 photons (as the photon maps' kd-tree does).
-fn morton_order(photons: &[Photon]) -> Vec<u64> {
+pub(super) fn morton_order<T: Sync>(photons: &[T], position: impl Fn(&T) -> Vec3 + Sync) -> Vec<u64> {
     use rayon::prelude::*;
     assert!(u32::try_from(photons.len()).is_ok(), "fewer than 2^32 photons");
     let (lo, hi) = photons
         .par_iter()
         .fold(
             || (Vec3::INFINITY, Vec3::NEG_INFINITY),
-            |(lo, hi), photon| (lo.min(photon.position), hi.max(photon.position)),
+            |(lo, hi), photon| (lo.min(position(photon)), hi.max(position(photon))),
         )
         .reduce(|| (Vec3::INFINITY, Vec3::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
     let scale = 1023.0 / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
@@ -497,14 +497,17 @@ fn morton_order(photons: &[Photon]) -> Vec<u64> {
         spread(c.x) | (spread(c.y) << 1) | (spread(c.z) << 2)
     };
     // Unique keys, so the unstable sort is as deterministic as a stable one.
-    let mut keyed: Vec<u64> =
-        photons.par_iter().enumerate().map(|(i, p)| (u64::from(code(p.position)) << 32) | i as u64).collect();
+    let mut keyed: Vec<u64> = photons
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| (u64::from(code(position(p))) << 32) | i as u64)
+        .collect();
     keyed.par_sort_unstable();
     keyed
 }
 
 /// The photon index a key of [`morton_order`] holds.
-fn index_of(key: u64) -> usize {
+pub(super) fn index_of(key: u64) -> usize {
     (key & 0xffff_ffff) as usize
 }
 

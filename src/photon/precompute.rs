@@ -156,7 +156,7 @@ mod tests {
         let mut rng = Rng::new(5, 6);
         let photons = Photon::on_lattice_and_scattered(4000, 40, &mut rng);
         let map = PhotonMap::new(photons);
-        let runs = Runs::new(map.photons());
+        let runs = Runs::new(map.photons(), |photon| photon.position);
         for _ in 0..40 {
             let q = Vec3::new(rng.uniform(), 0.0, rng.uniform());
             for (k, max_radius) in [(1, 10.0), (20, 10.0), (200, 10.0), (200, 0.05), (4001, 10.0)] {

@@ -1,11 +1,12 @@
 //! Range searches over photons already in Morton order, for the irradiance
 //! precomputation: "every photon within this sphere", about 200 of them,
-//! asked once per record (a quarter of a million times at 1M photons).
+//! asked once per record (a quarter of a million times at 1M photons); and
+//! for SPPM's gathering (`ranges.rs`), about 10 each, once per pixel a pass.
 //!
 //! The photons lie along a Morton curve (see `PhotonMap::new`), so every run
 //! of [`RUN`] consecutive photons is a compact patch of surface. The runs are
-//! the leaves of an implicit binary tree of boxes, built bottom up in one
-//! pass: nothing is sorted or split, so building costs a copy of the
+//! the leaves of an implicit tree of boxes, four children to a node, built
+//! bottom up in one pass: nothing is sorted or split, so building costs a copy of the
 //! positions. A search walks the boxes the sphere touches and tests each
 //! touched run's photons together: their coordinates are stored axis by axis,
 //! and the squared distances of a whole run are one loop the compiler turns
@@ -13,10 +14,9 @@
 //! photon at a time (its SIMD distances need AVX2 enabled at compile time)
 //! and was most of the precomputation's time (BENCHMARKS.md, issue 17).
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::map::Photon;
 use crate::bounds::Bounds;
 
 /// Photons in a run: a leaf of the tree.
@@ -31,38 +31,90 @@ struct Run {
     z: [f32; RUN],
 }
 
-/// The tree over the runs: `levels[0]` holds each run's box, each further
-/// level the boxes of pairs below it (node `i` covers `2i` and `2i + 1`), up
-/// to one box over all.
+/// The tree over the runs, four children to a node: `levels[0]` holds the
+/// boxes of the runs four at a time (node `i` covers runs `4i..4i + 4`),
+/// each further level the boxes of the nodes below four at a time, up to
+/// one node. A search tests a node's four boxes at once, in SIMD lanes
+/// (with two children to a node it made twice as many visits, each a
+/// mispredicted branch: the search's largest cost in SPPM's gathering).
 pub(super) struct Runs {
     runs: Vec<Run>,
-    levels: Vec<Vec<Bounds>>,
+    /// Each run's box.
+    boxes: Vec<Bounds>,
+    levels: Vec<Vec<Node>>,
+}
+
+/// Four boxes, axis by axis, and which of them exist (the last node of a
+/// level may have fewer than four children).
+#[derive(Clone, Copy)]
+struct Node {
+    min: [Vec4; 3],
+    max: [Vec4; 3],
+    children: u32,
+}
+
+impl Node {
+    fn new(boxes: &[Bounds]) -> Node {
+        let lane = |i: usize| boxes.get(i).copied().unwrap_or(Bounds::EMPTY);
+        let [a, b, c, d] = [lane(0), lane(1), lane(2), lane(3)];
+        let axis = |p: [Vec3; 4], k: usize| Vec4::new(p[0][k], p[1][k], p[2][k], p[3][k]);
+        let (min, max) = ([a.min, b.min, c.min, d.min], [a.max, b.max, c.max, d.max]);
+        Node {
+            min: [axis(min, 0), axis(min, 1), axis(min, 2)],
+            max: [axis(max, 0), axis(max, 1), axis(max, 2)],
+            children: boxes.len().min(4) as u32,
+        }
+    }
+
+    /// The box around all four.
+    fn bounds(&self) -> Bounds {
+        let min = Vec3::new(self.min[0].min_element(), self.min[1].min_element(), self.min[2].min_element());
+        let max = Vec3::new(self.max[0].max_element(), self.max[1].max_element(), self.max[2].max_element());
+        Bounds { min, max }
+    }
+
+    /// Bit `i` set when child `i` exists and its box reaches within `r2`
+    /// of `q`: the gap from `q` to the box, squared, as the scalar
+    /// `(min - q).max(q - max).max(0).length_squared() <= r2` rounds it.
+    #[inline]
+    fn reaching(&self, q: Vec3, r2: f32) -> u32 {
+        let gap = |k: usize| {
+            let qk = Vec4::splat(q[k]);
+            (self.min[k] - qk).max(qk - self.max[k]).max(Vec4::ZERO)
+        };
+        let (gx, gy, gz) = (gap(0), gap(1), gap(2));
+        let d2 = gx * gx + gy * gy + gz * gz;
+        d2.cmple(Vec4::splat(r2)).bitmask() & ((1 << self.children) - 1)
+    }
 }
 
 impl Runs {
-    /// The tree over the positions of `photons` in the order given (in
-    /// parallel; the result does not depend on the threads).
-    pub(super) fn new(photons: &[Photon]) -> Runs {
+    /// The tree over the positions of `photons` (or any items with a
+    /// `position`) in the order given (in parallel; the result does not
+    /// depend on the threads).
+    pub(super) fn new<T: Sync>(photons: &[T], position: impl Fn(&T) -> Vec3 + Sync) -> Runs {
         let runs: Vec<Run> = photons
             .par_chunks(RUN)
             .map(|chunk| {
                 let mut run = Run { x: [f32::NAN; RUN], y: [f32::NAN; RUN], z: [f32::NAN; RUN] };
                 for (i, photon) in chunk.iter().enumerate() {
-                    let p = photon.position;
+                    let p = position(photon);
                     (run.x[i], run.y[i], run.z[i]) = (p.x, p.y, p.z);
                 }
                 run
             })
             .collect();
-        let boxes =
-            photons.par_chunks(RUN).map(|chunk| chunk.iter().fold(Bounds::EMPTY, |b, p| b.grow(p.position)));
-        let mut levels = vec![boxes.collect::<Vec<_>>()];
+        let boxes: Vec<Bounds> = photons
+            .par_chunks(RUN)
+            .map(|chunk| chunk.iter().fold(Bounds::EMPTY, |b, p| b.grow(position(p))))
+            .collect();
+        let mut levels: Vec<Vec<Node>> = vec![boxes.chunks(4).map(Node::new).collect()];
         while let Some(below) = levels.last().filter(|level| level.len() > 1) {
             let above =
-                below.chunks(2).map(|pair| pair.iter().fold(Bounds::EMPTY, |b, &c| b.union(c))).collect();
-            levels.push(above);
+                below.chunks(4).map(|four| Node::new(&four.iter().map(Node::bounds).collect::<Vec<_>>()));
+            levels.push(above.collect());
         }
-        Runs { runs, levels }
+        Runs { runs, boxes, levels }
     }
 
     /// A first guess at the squared radius of a sphere holding `k`
@@ -71,7 +123,7 @@ impl Runs {
     /// count grows with the area). Searches grow a radius too small, and find
     /// the same photons from one too large.
     pub(super) fn start_radius2(&self, index: usize, k: usize) -> f32 {
-        self.levels[0]
+        self.boxes
             .get(index / RUN)
             .map_or(0.0, |b| 0.25 * (b.max - b.min).length_squared() * k as f32 / RUN as f32)
     }
@@ -121,21 +173,18 @@ impl Runs {
         nearest_first(keys, k)
     }
 
+    /// Scans the runs below `node` of `level` whose boxes reach within `r2`
+    /// of `q`, in their order (a NaN radius reaches nothing): the runs a
+    /// search scans, and the order it pushes their photons, are those of
+    /// any tree over the same runs' boxes.
     fn visit(&self, level: usize, node: usize, q: Vec3, r2: f32, found: &mut Vec<u64>) {
-        let b = &self.levels[level][node];
-        // The gap from `q` to the box (a NaN radius reaches nothing).
-        let gap = (b.min - q).max(q - b.max).max(Vec3::ZERO);
-        let reaches = gap.length_squared() <= r2;
-        if !reaches {
-            return;
-        }
-        if level == 0 {
-            self.scan(node, q, r2, found);
-            return;
-        }
-        for child in [2 * node, 2 * node + 1] {
-            if child < self.levels[level - 1].len() {
-                self.visit(level - 1, child, q, r2, found);
+        let mut reaching = self.levels[level][node].reaching(q, r2);
+        while reaching != 0 {
+            let child = 4 * node + reaching.trailing_zeros() as usize;
+            reaching &= reaching - 1;
+            match level {
+                0 => self.scan(child, q, r2, found),
+                _ => self.visit(level - 1, child, q, r2, found),
             }
         }
     }
@@ -206,8 +255,7 @@ mod tests {
                     Vec3::new(rng.uniform(), y, rng.uniform())
                 })
                 .collect();
-            let photons: Vec<Photon> = points.iter().map(|&position| Photon::on_floor(position)).collect();
-            let runs = Runs::new(&photons);
+            let runs = Runs::new(&points, |p| *p);
             for _ in 0..30 {
                 let q = Vec3::new(rng.uniform(), rng.uniform() * 0.2, rng.uniform());
                 for r2 in [0.0, 1e-4, 0.01, 0.1, 5.0, f32::INFINITY] {
