@@ -22,6 +22,7 @@ pub mod guide;
 pub mod map;
 pub mod nearest;
 mod precompute;
+pub(crate) mod ranges;
 mod runs;
 
 use std::time::Instant;

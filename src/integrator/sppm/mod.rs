@@ -7,8 +7,9 @@
 //!    under a time budget 4 on average, more where the pixels around are
 //!    noisier);
 //!    the first path's surface point is the pixel's *visible point*;
-//! 2. traces a fresh batch of photons and lets every visible point within its
-//!    pixel's radius of a photon's landing place gather it;
+//! 2. traces a fresh batch of photons and lets every visible point gather
+//!    the photons that land within its pixel's radius (a range search from
+//!    each point, `photon::ranges`);
 //! 3. shrinks each pixel's radius as photons arrive: with `N` photons so far
 //!    and `M` new ones, `N' = N + alpha M`, `R' = R sqrt(N' / (N + M))`, and
 //!    the gathered flux is scaled by `(R' / R)^2`.
@@ -26,8 +27,6 @@
 //! go to the `caustic` component, the rest to `global`. Direct light and
 //! lights seen through mirrors go to `direct`.
 
-mod grid;
-
 use std::f32::consts::PI;
 use std::time::{Duration, Instant};
 
@@ -41,10 +40,10 @@ use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
 use crate::photon::nearest::PointTree;
-use crate::photon::{emit, Arrival};
+use crate::photon::ranges::RangeSearch;
+use crate::photon::{emit, Arrival, Photon};
 use crate::query::{Interaction, RayCount};
 use crate::sampling::Rng;
-use grid::Grid;
 
 /// The progressive photon-mapping integrator.
 pub struct Sppm;
@@ -433,14 +432,12 @@ impl<'a> Progressive<'a> {
 
     /// Traces `photons` photons (a pass's count, or a part of it: each
     /// carries a whole pass's share of the lights' power) and sums, per
-    /// pixel, the flux its visible point gathers. Splats are collected per
-    /// chunk of photons and added in photon order, so the sums do not
-    /// depend on the thread count.
+    /// pixel, the flux its visible point gathers. Each point finds the
+    /// photons within its radius (`RangeSearch`) and adds them in the order
+    /// they were emitted, so the sums do not depend on the thread count.
     fn gather_photons(&self, points: &[Option<VisiblePoint>], photons: u32) -> Vec<Gathered> {
-        let mut gathered = vec![Gathered::default(); points.len()];
-        let grid = Grid::new(points);
-        if grid.is_empty() {
-            return gathered;
+        if !points.iter().flatten().any(|vp| vp.radius > 0.0) {
+            return vec![Gathered::default(); points.len()];
         }
         let scene = self.ctx.scene();
         let config = self.ctx.config;
@@ -450,6 +447,8 @@ impl<'a> Progressive<'a> {
         // A different photon stream every pass.
         let stream_seed = (config.seed ^ 0x5_99A1)
             .wrapping_add((self.passes as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        // Each photon where it lands, and whether it is caustic light
+        // (no diffuse bounce before), in the order emitted.
         let chunks = emit(
             &self.ctx.query,
             photons,
@@ -457,34 +456,42 @@ impl<'a> Progressive<'a> {
             stream_seed,
             false,
             Vec::new,
-            |splats: &mut Vec<(u32, Vec3, bool)>, arrival: &Arrival| {
-                if !is_gathered(arrival) {
-                    return true;
-                }
-                let photon = &arrival.photon;
-                for &i in grid.near(photon.position) {
-                    let Some(vp) = &points[i as usize] else { continue };
-                    if (vp.p - photon.position).length_squared() > vp.radius * vp.radius
-                        || !photon.lights_surface(vp.p, vp.n, vp.radius)
-                    {
-                        continue;
-                    }
-                    let f = scene.materials[vp.material].brdf(vp.n, photon.incoming, vp.wo);
-                    splats.push((i, vp.weight * f * photon.power * share, arrival.diffuse_bounces == 0));
+            |arrived: &mut Vec<(Photon, bool)>, arrival: &Arrival| {
+                if is_gathered(arrival) {
+                    arrived.push((arrival.photon, arrival.diffuse_bounces == 0));
                 }
                 true
             },
         );
-        for (i, flux, caustic) in chunks.into_iter().flatten() {
-            let g = &mut gathered[i as usize];
-            if caustic {
-                g.caustic += flux;
-            } else {
-                g.global += flux;
-            }
-            g.count += 1;
-        }
-        gathered
+        let arrived: Vec<(Photon, bool)> = chunks.into_iter().flatten().collect();
+        let positions: Vec<Vec3> = arrived.par_iter().map(|(photon, _)| photon.position).collect();
+        let search = RangeSearch::new(&positions);
+        points
+            .par_iter()
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(keys, found), vp| {
+                    let mut g = Gathered::default();
+                    let Some(vp) = vp else { return g };
+                    search.within(vp.p, vp.radius * vp.radius, keys, found);
+                    for &i in found.iter() {
+                        let (photon, caustic) = &arrived[i as usize];
+                        if !photon.lights_surface(vp.p, vp.n, vp.radius) {
+                            continue;
+                        }
+                        let f = scene.materials[vp.material].brdf(vp.n, photon.incoming, vp.wo);
+                        let flux = vp.weight * f * photon.power * share;
+                        if *caustic {
+                            g.caustic += flux;
+                        } else {
+                            g.global += flux;
+                        }
+                        g.count += 1;
+                    }
+                    g
+                },
+            )
+            .collect()
     }
 }
 

@@ -1,0 +1,84 @@
+//! Range searches of any radius over positions, answered in the order the
+//! positions were given: SPPM's gathering, where every visible point looks
+//! for the photons within its own radius.
+//!
+//! Each pixel's radius shrinks at its own pace, so the radii of one pass
+//! differ by an order of magnitude: wide in dim places, narrow in caustics.
+//! Searching from the visible points' side makes each search as wide as
+//! its own radius. (Searching from the photons' side, in a grid over the
+//! points whose cells must be as wide as the largest radius, a photon
+//! tested about a hundred points to find ten, each a read scattered over
+//! the points: a quarter of an SPPM render, BENCHMARKS.md.)
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::map::{index_of, morton_order};
+use super::runs::{unkey, Runs};
+
+/// Positions along a Morton curve, in runs searched by spheres
+/// (`runs.rs`), with each one's index in the order given.
+pub struct RangeSearch {
+    /// Per position in curve order, its index in the order given.
+    given: Vec<u32>,
+    runs: Runs,
+}
+
+impl RangeSearch {
+    /// The search over `positions` (in parallel; the result does not
+    /// depend on the threads). Panics beyond 2^32 positions.
+    pub fn new(positions: &[Vec3]) -> RangeSearch {
+        let order = morton_order(positions, |p| *p);
+        let along: Vec<Vec3> = order.par_iter().map(|&key| positions[index_of(key)]).collect();
+        let given = order.iter().map(|&key| index_of(key) as u32).collect();
+        RangeSearch { given, runs: Runs::new(&along, |p| *p) }
+    }
+
+    /// The indices (in the order given) of every position `p` with
+    /// `(p - q).length_squared() <= r2`, in increasing order, into `found`
+    /// (cleared first); `keys` is a buffer the search reuses.
+    pub fn within(&self, q: Vec3, r2: f32, keys: &mut Vec<u64>, found: &mut Vec<u32>) {
+        keys.clear();
+        self.runs.within(q, r2, keys);
+        found.clear();
+        found.extend(keys.iter().map(|&key| self.given[unkey(key).1]));
+        found.sort_unstable();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    #[test]
+    fn finds_exactly_the_positions_within_in_the_order_given() {
+        // On a plane (many equal distances, points exactly on a sphere's
+        // edge) and in a volume; radii from none found to all; counts that
+        // leave the last run partly filled, and one and none.
+        let mut rng = Rng::new(21, 22);
+        for n in [0, 1, 33, 2500] {
+            let positions: Vec<Vec3> = (0..n)
+                .map(|i| match i % 2 {
+                    0 => Vec3::new((i % 50) as f32 * 0.02, 0.0, (i / 50) as f32 * 0.02),
+                    _ => Vec3::new(rng.uniform(), rng.uniform() * 0.1, rng.uniform()),
+                })
+                .collect();
+            let search = RangeSearch::new(&positions);
+            let (mut keys, mut found) = (Vec::new(), Vec::new());
+            for j in 0..40 {
+                let q = match positions.get(j * 7) {
+                    Some(&p) if j % 2 == 0 => p,
+                    _ => Vec3::new(rng.uniform(), rng.uniform() * 0.1, rng.uniform()),
+                };
+                for r2 in [0.0, 0.0004, 0.01, 0.1, f32::INFINITY] {
+                    search.within(q, r2, &mut keys, &mut found);
+                    let brute: Vec<u32> = (0..n as u32)
+                        .filter(|&i| (positions[i as usize] - q).length_squared() <= r2)
+                        .collect();
+                    assert_eq!(found, brute, "{n} positions, r2 {r2}, at {q}");
+                }
+            }
+        }
+    }
+}
