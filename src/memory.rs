@@ -43,6 +43,12 @@ const IRRADIANCE_RECORD_BYTES: u64 =
 /// table's share.
 const CAUSTIC_GRID_BYTES: u64 = 16 + 16 + 8;
 
+/// Bytes per photon an SPPM pass gathers (`integrator/sppm`): the photon
+/// (its traced chunk is freed as it is copied into the pass's array), its
+/// 8-byte key along the Morton curve, its position in the runs and its
+/// index (`photon/ranges.rs`).
+const PASS_PHOTON_BYTES: u64 = std::mem::size_of::<crate::photon::Photon>() as u64 + 8 + 12 + 4;
+
 /// Bytes per photon of SPPM's density batch (for the starting radii): its
 /// position, twice while the chunks are joined, and its place in the tree.
 const DENSITY_POINT_BYTES: u64 = 2 * 12 + 8;
@@ -76,19 +82,21 @@ impl Estimate {
                 let grid = p.caustic_photons as u64 * CAUSTIC_GRID_BYTES;
                 (pixels * FILM_BYTES_PER_PIXEL, (stored * PHOTON_BYTES as f64) as u64 + grid)
             }
-            // One pass's splats, not a map: a few per photon; and, without
+            // One pass's photons where they land, not a map; and, without
             // a starting radius, where a pass's photons landed, kept for the
             // pixels' own.
             IntegratorKind::Sppm => {
                 photons_setting = ("pass_photons", "the photons of a pass");
-                let splats = p.sppm.photons_per_pass as u64 * 64;
+                let stored = p.sppm.photons_per_pass as f64 * stores_per_photon(scene, p.max_bounces);
+                // A pass gathers none of the photons that come straight from a light.
+                let gathered = (stored - p.sppm.photons_per_pass as f64).max(0.0);
                 let density = match p.sppm.initial_radius {
-                    None => p.sppm.photons_per_pass as f64 * stores_per_photon(scene, p.max_bounces),
+                    None => stored,
                     Some(_) => 0.0,
                 };
                 (
                     pixels * (FILM_BYTES_PER_PIXEL + SPPM_BYTES_PER_PIXEL),
-                    splats + (density * DENSITY_POINT_BYTES as f64) as u64,
+                    (gathered * PASS_PHOTON_BYTES as f64 + density * DENSITY_POINT_BYTES as f64) as u64,
                 )
             }
             // One pass's light vertices (one light subpath per pixel of

@@ -25,16 +25,16 @@ pub struct RangeSearch {
 }
 
 impl RangeSearch {
-    /// The search over `positions` (in parallel; the result does not
-    /// depend on the threads). Panics beyond 2^32 positions.
-    pub fn new(positions: &[Vec3]) -> RangeSearch {
-        let order = morton_order(positions, |p| *p);
-        let along: Vec<Vec3> = order.par_iter().map(|&key| positions[index_of(key)]).collect();
-        let given = order.iter().map(|&key| index_of(key) as u32).collect();
-        RangeSearch { given, runs: Runs::new(&along, |p| *p) }
+    /// The search over the positions of `items` (in parallel; the result
+    /// does not depend on the threads). Panics beyond 2^32 items.
+    pub fn new<T: Sync>(items: &[T], position: impl Fn(&T) -> Vec3 + Sync) -> RangeSearch {
+        let order = morton_order(items, &position);
+        let runs = Runs::new(&order, |&key| position(&items[index_of(key)]));
+        let given = order.par_iter().map(|&key| index_of(key) as u32).collect();
+        RangeSearch { given, runs }
     }
 
-    /// The indices (in the order given) of every position `p` with
+    /// The indices (in the order given) of every item whose position `p` has
     /// `(p - q).length_squared() <= r2`, in increasing order, into `found`
     /// (cleared first); `keys` is a buffer the search reuses.
     pub fn within(&self, q: Vec3, r2: f32, keys: &mut Vec<u64>, found: &mut Vec<u32>) {
@@ -64,7 +64,7 @@ mod tests {
                     _ => Vec3::new(rng.uniform(), rng.uniform() * 0.1, rng.uniform()),
                 })
                 .collect();
-            let search = RangeSearch::new(&positions);
+            let search = RangeSearch::new(&positions, |p| *p);
             let (mut keys, mut found) = (Vec::new(), Vec::new());
             for j in 0..40 {
                 let q = match positions.get(j * 7) {

@@ -447,8 +447,9 @@ impl<'a> Progressive<'a> {
         // A different photon stream every pass.
         let stream_seed = (config.seed ^ 0x5_99A1)
             .wrapping_add((self.passes as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-        // Each photon where it lands, and whether it is caustic light
-        // (no diffuse bounce before), in the order emitted.
+        // Each photon where it lands, in the order emitted (a photon that
+        // bounced off no diffuse or glossy surface before, `!indirect`, is
+        // caustic light).
         let chunks = emit(
             &self.ctx.query,
             photons,
@@ -456,16 +457,20 @@ impl<'a> Progressive<'a> {
             stream_seed,
             false,
             Vec::new,
-            |arrived: &mut Vec<(Photon, bool)>, arrival: &Arrival| {
+            |arrived: &mut Vec<Photon>, arrival: &Arrival| {
                 if is_gathered(arrival) {
-                    arrived.push((arrival.photon, arrival.diffuse_bounces == 0));
+                    arrived.push(arrival.photon);
                 }
                 true
             },
         );
-        let arrived: Vec<(Photon, bool)> = chunks.into_iter().flatten().collect();
-        let positions: Vec<Vec3> = arrived.par_iter().map(|(photon, _)| photon.position).collect();
-        let search = RangeSearch::new(&positions);
+        // Joined into one array its exact size: each chunk is freed as it
+        // is copied, so a pass holds its photons about once.
+        let mut arrived = Vec::with_capacity(chunks.iter().map(Vec::len).sum());
+        for chunk in chunks {
+            arrived.extend(chunk);
+        }
+        let search = RangeSearch::new(&arrived, |photon| photon.position);
         points
             .par_iter()
             .map_init(
@@ -475,13 +480,13 @@ impl<'a> Progressive<'a> {
                     let Some(vp) = vp else { return g };
                     search.within(vp.p, vp.radius * vp.radius, keys, found);
                     for &i in found.iter() {
-                        let (photon, caustic) = &arrived[i as usize];
+                        let photon = &arrived[i as usize];
                         if !photon.lights_surface(vp.p, vp.n, vp.radius) {
                             continue;
                         }
                         let f = scene.materials[vp.material].brdf(vp.n, photon.incoming, vp.wo);
                         let flux = vp.weight * f * photon.power * share;
-                        if *caustic {
+                        if !photon.indirect {
                             g.caustic += flux;
                         } else {
                             g.global += flux;
