@@ -200,15 +200,16 @@ impl Runs {
         }
         // Written without a branch per photon (whether one lies within is
         // as good as a coin toss near the sphere's edge): every photon is
-        // written past the end, and the end moves past those within.
+        // written past the last one within, and that end moves past those
+        // within. (`n <= i`, so `n % RUN` is `n`: no bounds check.)
         let base = index * RUN;
-        let mut end = found.len();
-        found.resize(end + RUN, 0);
+        let mut within = [0u64; RUN];
+        let mut n = 0;
         for (i, &d) in d2.iter().enumerate() {
-            found[end] = key(d, base + i);
-            end += usize::from(d <= r2);
+            within[n % RUN] = key(d, base + i);
+            n += usize::from(d <= r2);
         }
-        found.truncate(end);
+        found.extend_from_slice(&within[..n]);
     }
 }
 
