@@ -466,12 +466,13 @@ fn kd_tree(photons: &[Photon]) -> Option<ImmutableKdTree<f32, 3>> {
     (!points.is_empty()).then(|| ImmutableKdTree::new_from_slice(&points).expect("fewer than 2^32 photons"))
 }
 
-/// The photons in the order of a Morton (Z-order) curve through their
-/// bounding box, 10 bits per axis: photons close in space come close in the
-/// order (of any items with a `position`). Each is given by its curve code above its index (see
-/// [`index_of`]), so that ties keep their index order. (Keys, not indices,
-/// and no copy of the positions: fresh memory costs about 3 us a page to
-/// map on the machines measured, a tenth of the map's build.)
+/// The photons (or any items with a `position`) in the order of a Morton
+/// (Z-order) curve through their bounding box, 10 bits per axis: photons
+/// close in space come close in the order. Each is given by its curve code
+/// above its index (see [`index_of`]), so that ties keep their index order.
+/// (Keys, not indices, and no copy of the positions: fresh memory costs
+/// about 3 us a page to map on the machines measured, a tenth of the map's
+/// build.)
 ///
 /// Panics beyond 2^32 photons (as the photon maps' kd-tree does).
 pub(super) fn morton_order<T: Sync>(photons: &[T], position: impl Fn(&T) -> Vec3 + Sync) -> Vec<u64> {

@@ -6,11 +6,11 @@
 //! The photons lie along a Morton curve (see `PhotonMap::new`), so every run
 //! of [`RUN`] consecutive photons is a compact patch of surface. The runs are
 //! the leaves of an implicit tree of boxes, four children to a node, built
-//! bottom up in one pass: nothing is sorted or split, so building costs a copy of the
-//! positions. A search walks the boxes the sphere touches and tests each
-//! touched run's photons together: their coordinates are stored axis by axis,
-//! and the squared distances of a whole run are one loop the compiler turns
-//! into SIMD. kiddo's range search, which this replaces there, tests one
+//! bottom up in one pass: nothing is sorted or split, so building costs a
+//! copy of the positions. A search walks the boxes the sphere touches and
+//! tests each touched run's photons together: their coordinates are stored
+//! axis by axis, and the squared distances of a whole run are one loop the
+//! compiler turns into SIMD. kiddo's range search, which this replaces there, tests one
 //! photon at a time (its SIMD distances need AVX2 enabled at compile time)
 //! and was most of the precomputation's time (BENCHMARKS.md, issue 17).
 
@@ -262,8 +262,10 @@ mod tests {
                 for r2 in [0.0, 1e-4, 0.01, 0.1, 5.0, f32::INFINITY] {
                     let mut keys = Vec::new();
                     runs.within(q, r2, &mut keys);
-                    let mut found: Vec<(f32, usize)> = keys.into_iter().map(unkey).collect();
-                    found.sort_by_key(|&(_, i)| i);
+                    let found: Vec<(f32, usize)> = keys.into_iter().map(unkey).collect();
+                    // Pushed run by run in order, each run's photons in
+                    // order: the order the precomputation's sums follow.
+                    assert!(found.windows(2).all(|w| w[0].1 < w[1].1), "{n} points, r2 {r2}: out of order");
                     let brute: Vec<(f32, usize)> = points
                         .iter()
                         .enumerate()
