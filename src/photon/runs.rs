@@ -10,9 +10,10 @@
 //! copy of the positions. A search walks the boxes the sphere touches and
 //! tests each touched run's photons together: their coordinates are stored
 //! axis by axis, and the squared distances of a whole run are one loop the
-//! compiler turns into SIMD. kiddo's range search, which this replaces there, tests one
-//! photon at a time (its SIMD distances need AVX2 enabled at compile time)
-//! and was most of the precomputation's time (BENCHMARKS.md, issue 17).
+//! compiler turns into SIMD. kiddo's range search, which this replaces
+//! there, tests one photon at a time (its SIMD distances need AVX2 enabled
+//! at compile time) and was most of the precomputation's time
+//! (BENCHMARKS.md, issue 17).
 
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -104,9 +105,16 @@ impl Runs {
                 run
             })
             .collect();
-        let boxes: Vec<Bounds> = photons
-            .par_chunks(RUN)
-            .map(|chunk| chunk.iter().fold(Bounds::EMPTY, |b, p| b.grow(position(p))))
+        // Each run's box from its own coordinates (a second pass over the
+        // items would fetch every position again, scattered when `position`
+        // looks them up elsewhere, as `ranges.rs` does).
+        let boxes: Vec<Bounds> = runs
+            .par_iter()
+            .enumerate()
+            .map(|(j, run)| {
+                let len = (photons.len() - j * RUN).min(RUN);
+                (0..len).fold(Bounds::EMPTY, |b, i| b.grow(Vec3::new(run.x[i], run.y[i], run.z[i])))
+            })
             .collect();
         let mut levels: Vec<Vec<Node>> = vec![boxes.chunks(4).map(Node::new).collect()];
         while let Some(below) = levels.last().filter(|level| level.len() > 1) {
