@@ -147,6 +147,11 @@ impl<T: Copy> PointTree<T> {
         slots.into_iter().map(|slot| (self.points[slot], self.values[slot])).collect()
     }
 
+    /// The point in `slot` (as [`Found::slot`] gives it).
+    pub fn point(&self, slot: u32) -> Vec3 {
+        self.points[slot as usize]
+    }
+
     /// The value of a point found.
     pub fn value(&self, found: &Found) -> &T {
         &self.values[found.slot as usize]

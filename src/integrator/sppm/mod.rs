@@ -39,7 +39,7 @@ use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
-use crate::photon::nearest::PointTree;
+use crate::photon::nearest::{Nearest, PointTree};
 use crate::photon::ranges::RangeSearch;
 use crate::photon::{emit, Arrival, Photon};
 use crate::query::{Interaction, RayCount};
@@ -178,6 +178,10 @@ pub struct Progressive<'a> {
 struct Density {
     /// The batch's landing places (only their distances count).
     points: PointTree<()>,
+    /// The own radius (as [`Density::radius_at`] finds it before the
+    /// slope's bound) at every [`OWN_EVERY`]-th landing place by its slot
+    /// in `points`: `own[slot / OWN_EVERY]`.
+    own: Vec<f32>,
     /// The starting radius's bounds: 1e-4 and 1/25 of the scene's diagonal.
     min_radius: f32,
     max_radius: f32,
@@ -209,11 +213,64 @@ const MIN_PASS_FRACTION: f64 = 0.05;
 /// 8, 16, 32, 64 and 128 (32 and 64 best; 64 gathers more, so slower).
 const START_NEIGHBOURS: usize = 32;
 
+/// How fast the starting radius may grow with distance (see
+/// [`Density::radius_at`]). Measured 0, 0.25 and 0.5 (BENCHMARKS.md).
+const START_SLOPE: f32 = 0.25;
+
+/// The landing places of the density batch whose own radius bounds the
+/// starting radius: one in this many (in the tree's order, spread evenly
+/// in space). A bright patch beside a pixel puts many of its photons among
+/// the pixel's nearest, so a share of them finds it; a radius for each
+/// cost a fifth of the first pass.
+const OWN_EVERY: usize = 4;
+
 impl Density {
-    /// The distance from `p` to the [`START_NEIGHBOURS`]-th nearest photon,
-    /// within the bounds (the largest where fewer are near).
+    fn new(positions: Vec<Vec3>, min_radius: f32, max_radius: f32) -> Density {
+        let points = PointTree::new(&positions, &vec![(); positions.len()]);
+        let mut density = Density { points, own: Vec::new(), min_radius, max_radius };
+        // In the tree's order, where neighbours' searches read the same
+        // memory; in parallel, each radius on its own (no thread count in it).
+        density.own = (0..positions.len().div_ceil(OWN_EVERY))
+            .into_par_iter()
+            .map(|i| density.own_radius(&density.neighbours(density.points.point((i * OWN_EVERY) as u32))))
+            .collect();
+        density
+    }
+
+    /// The [`START_NEIGHBOURS`] photons nearest `p` within the largest radius.
+    fn neighbours(&self, p: Vec3) -> Nearest<START_NEIGHBOURS> {
+        self.points.nearest::<START_NEIGHBOURS>(p, self.max_radius * self.max_radius)
+    }
+
+    /// The distance from `p` to the [`START_NEIGHBOURS`]-th nearest photon
+    /// (within the bounds: the largest where fewer are near), and no more
+    /// than any of those photons' own such radius plus [`START_SLOPE`]
+    /// times its distance from `p`.
+    ///
+    /// Why the bound: a pixel's disc counts the photons in it, so where
+    /// discs of different sizes meet, light is counted more than once. A
+    /// wide disc in the dark beside a caustic takes in the caustic's
+    /// photons, which the caustic's own narrow discs count as well: the
+    /// image had 3-5% too much caustic light after 32 passes (BENCHMARKS.md,
+    /// issue 16). Where the radius changes slowly across the surface, a
+    /// photon's light is shared among the discs it falls in, as in a
+    /// kernel of one size; the bound keeps it slow.
     fn radius_at(&self, p: Vec3) -> f32 {
-        let found = self.points.nearest::<START_NEIGHBOURS>(p, self.max_radius * self.max_radius);
+        let found = self.neighbours(p);
+        let own = self.own_radius(&found);
+        found
+            .as_slice()
+            .iter()
+            .filter(|photon| (photon.slot as usize).is_multiple_of(OWN_EVERY))
+            .map(|photon| self.own[photon.slot as usize / OWN_EVERY] + START_SLOPE * photon.distance2.sqrt())
+            .fold(own, f32::min)
+            .max(self.min_radius)
+    }
+
+    /// The starting radius the photons `found` around a point make there:
+    /// the distance to the last, within the bounds; the largest where
+    /// there are fewer than [`START_NEIGHBOURS`].
+    fn own_radius(&self, found: &Nearest<START_NEIGHBOURS>) -> f32 {
         match found.as_slice() {
             all @ [.., farthest] if all.len() == START_NEIGHBOURS => {
                 farthest.distance2.sqrt().clamp(self.min_radius, self.max_radius)
@@ -245,14 +302,12 @@ impl<'a> Progressive<'a> {
             })
             .collect();
         let start = Instant::now();
-        let density = config.photons.sppm.initial_radius.is_none().then(|| Density {
-            points: {
-                let positions = density_positions(ctx);
-                PointTree::new(&positions, &vec![(); positions.len()])
-            },
-            min_radius: ctx.diagonal * 1e-4,
-            max_radius: ctx.diagonal / 25.0,
-        });
+        let density = config
+            .photons
+            .sppm
+            .initial_radius
+            .is_none()
+            .then(|| Density::new(density_positions(ctx), ctx.diagonal * 1e-4, ctx.diagonal / 25.0));
         let photon_seconds = start.elapsed().as_secs_f64();
         Progressive {
             ctx: *ctx,
@@ -610,8 +665,7 @@ mod tests {
     use super::*;
 
     fn density(positions: Vec<Vec3>) -> Density {
-        let points = PointTree::new(&positions, &vec![(); positions.len()]);
-        Density { points, min_radius: 1e-4, max_radius: 0.4 }
+        Density::new(positions, 1e-4, 0.4)
     }
 
     #[test]
@@ -625,6 +679,28 @@ mod tests {
             let r = density(photons).radius_at(Vec3::new(0.5, 0.0, 0.5));
             assert!((r / expected - 1.0).abs() < 0.2, "{n} photons: {r} against {expected}");
         }
+    }
+
+    #[test]
+    fn the_starting_radius_grows_slowly_beside_a_bright_patch() {
+        // A dense patch (a caustic) at the corner of a thinly lit square.
+        let mut rng = Rng::new(4, 5);
+        let mut photons: Vec<Vec3> =
+            (0..2000).map(|_| Vec3::new(rng.uniform(), 0.0, rng.uniform()) * 0.1).collect();
+        photons.extend((0..200).map(|_| Vec3::new(rng.uniform(), 0.0, rng.uniform())));
+        let density = density(photons);
+        // Just beside the patch the 32 nearest reach into it from far off;
+        // the patch's own radii (about 0.007) bound the start to about a
+        // quarter of the way there.
+        let beside = Vec3::new(0.3, 0.0, 0.05);
+        let unbounded = density.own_radius(&density.neighbours(beside));
+        let bounded = density.radius_at(beside);
+        assert!(unbounded > 0.15, "{unbounded}");
+        assert!(bounded < 0.06 && bounded > 0.04, "{bounded}");
+        // Far from it, in the thin light, the start is the photons' own.
+        let far = Vec3::new(0.7, 0.0, 0.7);
+        let own = density.own_radius(&density.neighbours(far));
+        assert!(density.radius_at(far) > 0.7 * own, "{} against {own}", density.radius_at(far));
     }
 
     #[test]
