@@ -43,7 +43,7 @@ use crate::photon::nearest::{Nearest, PointTree};
 use crate::photon::ranges::RangeSearch;
 use crate::photon::{emit, Arrival, Photon};
 use crate::query::{Interaction, RayCount};
-use crate::sampling::Rng;
+use crate::sampling::{Rng, SamplerKind};
 
 /// The progressive photon-mapping integrator.
 pub struct Sppm;
@@ -388,7 +388,8 @@ impl<'a> Progressive<'a> {
                 let mut seen = std::mem::take(&mut state.seen);
                 let mut point = None;
                 for path in 0..=extra {
-                    let found = visible_point(&ctx, region.pixel(i), state, &mut count);
+                    let index = state.paths + path;
+                    let found = visible_point(&ctx, region.pixel(i), index, state, &mut count);
                     if path == 0 {
                         point = found;
                     }
@@ -601,14 +602,24 @@ fn density_positions(ctx: &Context) -> Vec<Vec3> {
 /// the first surface's albedo, normal and depth) to `state.seen`. At a surface with both diffuse/glossy and
 /// mirror/glass parts the path stops or goes on at random, in proportion
 /// to their weights (the weight divided by that chance keeps it unbiased).
+///
+/// The path is the pixel's `index`-th. With the Sobol sampler it draws
+/// from that sample's low-discrepancy stream, as the path tracer's samples
+/// do, so the pixel's paths over all passes stratify its area: a light's
+/// edge, where a pixel is partly light and partly wall, was the largest
+/// part of SPPM's error at long budgets with independent jitter
+/// (BENCHMARKS.md, issue 16). Otherwise from the pixel's own stream.
 fn visible_point(
     ctx: &Context,
     (x, y): (u32, u32),
+    index: u32,
     state: &mut PixelState,
     count: &mut RayCount,
 ) -> Option<VisiblePoint> {
     let (query, config) = (&ctx.query, ctx.config);
-    let rng = &mut state.rng;
+    let stream = y as u64 * config.width as u64 + x as u64;
+    let mut sobol = (config.sampler == SamplerKind::Sobol).then(|| Rng::sobol(config.seed, stream, index));
+    let rng = sobol.as_mut().unwrap_or(&mut state.rng);
     let jitter = rng.uniform2();
     let mut ray =
         ctx.scene().camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, config.width, config.height);
