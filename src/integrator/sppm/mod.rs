@@ -1,7 +1,8 @@
 //! Stochastic progressive photon mapping (Hachisuka and Jensen 2009): the
 //! consistent photon mapper. Each pass
 //!
-//! 1. traces jittered camera paths from each pixel through mirrors and glass
+//! 1. traces jittered camera paths from each pixel (with the Sobol sampler,
+//!    the pixel's successive samples over all passes) through mirrors and glass
 //!    to their first diffuse or glossy surface, adding the direct light
 //!    there by shadow rays (averaged over all the pixel's paths: 4 a pass;
 //!    under a time budget 4 on average, more where the pixels around are
@@ -18,7 +19,9 @@
 //! and the noise both vanish as passes go on, while memory stays bounded by
 //! one visible point per pixel and one batch of photons. Unless a starting
 //! radius is given, each pixel starts with the radius that holds 32 photons
-//! of a batch traced before the first pass, around its first visible point.
+//! of a batch traced before the first pass, around its first visible point,
+//! but grows no faster than a quarter of the distance from the photons
+//! there (so that discs beside a caustic do not take it in: `Density`).
 //! Under a time budget the last pass may be a part of one (fewer photons
 //! and camera paths), weighed as that part.
 //!
