@@ -153,11 +153,29 @@ impl Light {
     /// `ray.t_max`: the ray parameter and the radiance leaving towards the ray.
     /// Only area lights have a surface to hit.
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, Vec3)> {
+        match self.crossing(ray)? {
+            (t, Side::Front) => Some((t, self.front_radiance())),
+            (_, Side::Back) => None,
+        }
+    }
+
+    /// The radiance an area light's front sends every way (zero for lights
+    /// with no surface).
+    pub fn front_radiance(&self) -> Vec3 {
+        match self {
+            Light::Area { face, .. } => face.radiance,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// Where `ray` crosses the light's surface before `ray.t_max`, and on
+    /// which side: the ray parameter. Only area lights have a surface.
+    pub fn crossing(&self, ray: &Ray) -> Option<(f32, Side)> {
         let Light::Area { center, u, v, face, .. } = *self else { return None };
         let normal = face.normal;
         let facing = ray.dir.dot(normal);
-        if facing >= 0.0 {
-            return None; // parallel, or arriving at the back, which does not emit
+        if facing == 0.0 || facing.is_nan() {
+            return None; // parallel
         }
         let t = (center - ray.origin).dot(normal) / facing;
         if !(t > 0.0 && t <= ray.t_max) {
@@ -167,7 +185,8 @@ impl Light {
         let local = (ray.at(t) - center).as_dvec3();
         let along = |e: Vec3, length2: f64| local.dot(e.as_dvec3()) / length2;
         let (u_length2, v_length2) = face.length2;
-        (along(u, u_length2).abs() <= 0.5 && along(v, v_length2).abs() <= 0.5).then_some((t, face.radiance))
+        let side = if facing < 0.0 { Side::Front } else { Side::Back };
+        (along(u, u_length2).abs() <= 0.5 && along(v, v_length2).abs() <= 0.5).then_some((t, side))
     }
 
     /// Emits one photon from the uniforms `u` (position on the light) and `v`
@@ -279,12 +298,21 @@ impl Light {
     }
 }
 
-/// The nearest of `lights` that `ray` hits on its emitting side before
-/// `ray.t_max`: the light, the ray parameter, and the radiance towards the ray.
-pub fn nearest_emitter<'a>(lights: &'a [Light], ray: &Ray) -> Option<(&'a Light, f32, Vec3)> {
+/// Which side of an area light a ray meets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    /// The emitting side.
+    Front,
+    /// The back, which does not emit.
+    Back,
+}
+
+/// The nearest of `lights` whose surface `ray` crosses before `ray.t_max`:
+/// the light, the ray parameter, and the side.
+pub fn nearest_light<'a>(lights: &'a [Light], ray: &Ray) -> Option<(&'a Light, f32, Side)> {
     lights
         .iter()
-        .filter_map(|light| light.intersect(ray).map(|(t, radiance)| (light, t, radiance)))
+        .filter_map(|light| light.crossing(ray).map(|(t, side)| (light, t, side)))
         .min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
@@ -476,5 +504,10 @@ mod tests {
         assert!(light.intersect(&Ray::new(Vec3::new(0.2, 2.0, 0.0), -Vec3::Y)).is_none(), "back side");
         assert!(light.intersect(&Ray::new(Vec3::new(0.6, 0.0, 0.0), Vec3::Y)).is_none(), "beside it");
         assert!(light.intersect(&Ray { t_max: 0.5, ..up }).is_none(), "beyond t_max");
+        // The back is crossed too (it blocks rays: `SceneQuery::first`).
+        let down = Ray::new(Vec3::new(0.2, 2.0, 0.0), -Vec3::Y);
+        assert_eq!(light.crossing(&down), Some((1.0, Side::Back)));
+        assert_eq!(light.crossing(&up), Some((1.0, Side::Front)));
+        assert!(light.crossing(&Ray::new(Vec3::new(0.2, 2.0, 0.0), Vec3::X)).is_none(), "parallel");
     }
 }

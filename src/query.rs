@@ -7,7 +7,7 @@
 use glam::Vec3;
 
 use crate::accel::{Hit, Intersector, Ray};
-use crate::light::{nearest_emitter, Light};
+use crate::light::{nearest_light, Light, Side};
 use crate::material::Material;
 use crate::optics;
 use crate::scene::Scene;
@@ -33,8 +33,9 @@ impl std::ops::AddAssign for RayCount {
 pub enum Interaction<'a> {
     /// A surface of the scene's geometry.
     Surface(SurfacePoint),
-    /// The emitting front of an area light (lights are not geometry: they
-    /// are tested against the ray's segment up to the nearest surface).
+    /// The emitting front of an area light (lights are not in the
+    /// intersector's geometry: they are tested against the ray's segment up
+    /// to the nearest surface; a light's back ends a ray with nothing).
     Emitter {
         /// The light.
         light: &'a Light,
@@ -86,10 +87,21 @@ impl<'a> SceneQuery<'a> {
 
     /// What `ray` meets first, given the closest triangle it hits: an area
     /// light's front before it, or the surface there.
+    ///
+    /// A light's back is black and opaque: a ray that meets it first meets
+    /// nothing more (`None`), as a ray from the other side ends at the
+    /// front. Were the back transparent, camera paths would pass down
+    /// through a ceiling light into the room while light paths going up end
+    /// at its front: the path tracer and the light tracer would disagree on
+    /// the ceiling above the light (BENCHMARKS.md, issue 16).
     fn interaction(&self, ray: &Ray, hit: Option<Hit>) -> Option<Interaction<'a>> {
         let nearest = Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..*ray };
-        if let Some((light, t, radiance)) = nearest_emitter(&self.scene.lights, &nearest) {
-            return Some(Interaction::Emitter { light, t, radiance });
+        match nearest_light(&self.scene.lights, &nearest) {
+            Some((light, t, Side::Front)) => {
+                return Some(Interaction::Emitter { light, t, radiance: light.front_radiance() });
+            }
+            Some((_, _, Side::Back)) => return None,
+            None => {}
         }
         hit.map(|hit| Interaction::Surface(SurfacePoint::new(self.scene, ray, &hit)))
     }
@@ -101,10 +113,20 @@ impl<'a> SceneQuery<'a> {
         self.accel.intersect(ray)
     }
 
-    /// Whether anything blocks the shadow ray `ray`. Counts one shadow ray.
+    /// Whether anything blocks the shadow ray `ray`: a surface, or an area
+    /// light (either side; a ray towards a point on a light stops short of
+    /// it). Counts one shadow ray.
     pub fn occluded(&self, ray: &Ray, count: &mut RayCount) -> bool {
         count.shadow += 1;
-        self.accel.occluded(ray)
+        self.accel.occluded(ray) || self.crosses_a_light(ray)
+    }
+
+    /// Whether `ray` crosses an area light before its end. Lights are
+    /// opaque panels to shadow rays as to every other ray: a connection
+    /// from a wall behind a light to the camera (the light tracer's, VCM's)
+    /// once passed through it and added the wall to the light's pixels.
+    fn crosses_a_light(&self, ray: &Ray) -> bool {
+        self.scene.lights.iter().any(|light| light.crossing(ray).is_some())
     }
 
     /// [`SceneQuery::occluded`] for every ray of `rays` at once, into
@@ -113,6 +135,9 @@ impl<'a> SceneQuery<'a> {
     pub fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool], count: &mut RayCount) {
         count.shadow += rays.len() as u64;
         self.accel.occluded_batch(rays, occluded);
+        for (ray, occluded) in rays.iter().zip(occluded) {
+            *occluded = *occluded || self.crosses_a_light(ray);
+        }
     }
 
     /// The material of a surface point.

@@ -207,7 +207,10 @@ mod tests {
         let (mut shadowed, mut lit) = (0, 0);
         for i in 0..400 {
             let (x, z) = ((i % 20) as f32 / 10.0 - 0.95, (i / 20) as f32 / 10.0 - 0.95);
-            let down = Ray::new(Vec3::new(x, 0.5, z), -Vec3::Y);
+            // From just above the floor (the scene is placed about the
+            // camera), below the lights, whose backs block rays.
+            let above_floor = (glam::DVec3::new(x as f64, 0.5, z as f64) - scene.origin).as_vec3();
+            let down = Ray::new(above_floor, -Vec3::Y);
             let mut count = RayCount::default();
             let Some(Interaction::Surface(sp)) = batched.first(&down, &mut count) else {
                 panic!("floor missed")
