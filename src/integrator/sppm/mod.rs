@@ -228,6 +228,8 @@ const START_SLOPE: f32 = 0.25;
 const OWN_EVERY: usize = 4;
 
 impl Density {
+    /// The density batch landed at `positions`, with the starting radius's
+    /// bounds, and the own radius of every [`OWN_EVERY`]-th photon.
     fn new(positions: Vec<Vec3>, min_radius: f32, max_radius: f32) -> Density {
         let points = PointTree::new(&positions, &vec![(); positions.len()]);
         let mut density = Density { points, own: Vec::new(), min_radius, max_radius };
