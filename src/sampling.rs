@@ -25,6 +25,14 @@ impl SamplerKind {
     /// Every sampler, by its name in scene files and on the command line.
     pub const NAMES: [(&'static str, SamplerKind); 2] =
         [("independent", SamplerKind::Independent), ("sobol", SamplerKind::Sobol)];
+
+    /// The stream of its own that sample `index` of `stream` (a pixel)
+    /// draws from under `seed`, if this sampler gives each sample one
+    /// (Sobol: [`Rng::sobol`]); `None` when the samples share the pixel's
+    /// stream (independent).
+    pub fn sample_stream(self, seed: u64, stream: u64, index: u32) -> Option<Rng> {
+        (self == SamplerKind::Sobol).then(|| Rng::sobol(seed, stream, index))
+    }
 }
 
 impl std::str::FromStr for SamplerKind {

@@ -46,7 +46,7 @@ use crate::photon::nearest::{Nearest, PointTree};
 use crate::photon::ranges::RangeSearch;
 use crate::photon::{emit, Arrival, Photon};
 use crate::query::{Interaction, RayCount};
-use crate::sampling::{Rng, SamplerKind};
+use crate::sampling::Rng;
 
 /// The progressive photon-mapping integrator.
 pub struct Sppm;
@@ -269,7 +269,6 @@ impl Density {
             .filter(|photon| (photon.slot as usize).is_multiple_of(OWN_EVERY))
             .map(|photon| self.own[photon.slot as usize / OWN_EVERY] + START_SLOPE * photon.distance2.sqrt())
             .fold(own, f32::min)
-            .max(self.min_radius)
     }
 
     /// The starting radius the photons `found` around a point make there:
@@ -623,7 +622,7 @@ fn visible_point(
 ) -> Option<VisiblePoint> {
     let (query, config) = (&ctx.query, ctx.config);
     let stream = y as u64 * config.width as u64 + x as u64;
-    let mut sobol = (config.sampler == SamplerKind::Sobol).then(|| Rng::sobol(config.seed, stream, index));
+    let mut sobol = config.sampler.sample_stream(config.seed, stream, index);
     let rng = sobol.as_mut().unwrap_or(&mut state.rng);
     let jitter = rng.uniform2();
     let mut ray =

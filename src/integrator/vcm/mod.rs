@@ -43,7 +43,7 @@ use crate::film::{Film, Sample};
 use crate::light::Light;
 use crate::photon::map::lands_near;
 use crate::query::{Interaction, RayCount, SurfacePoint};
-use crate::sampling::{Rng, SamplerKind};
+use crate::sampling::Rng;
 use grid::Grid;
 
 /// Which of the ways of joining subpaths a render uses.
@@ -347,8 +347,7 @@ impl Integrator for Vcm {
                 let path = y as usize * c.width as usize + x as usize;
                 // The camera subpath draws from the pixel's stream, or with
                 // Sobol from pass `index`'s low-discrepancy point.
-                let mut sobol =
-                    (c.sampler == SamplerKind::Sobol).then(|| Rng::sobol(c.seed, path as u64, index));
+                let mut sobol = c.sampler.sample_stream(c.seed, path as u64, index);
                 let rng = sobol.as_mut().unwrap_or(rng);
                 let offset = rng.uniform2();
                 let ray = ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height);
