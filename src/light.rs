@@ -149,16 +149,6 @@ impl Light {
         }
     }
 
-    /// Where `ray` hits the light's emitting side, if it does before
-    /// `ray.t_max`: the ray parameter and the radiance leaving towards the ray.
-    /// Only area lights have a surface to hit.
-    pub fn intersect(&self, ray: &Ray) -> Option<(f32, Vec3)> {
-        match self.crossing(ray)? {
-            (t, Side::Front) => Some((t, self.front_radiance())),
-            (_, Side::Back) => None,
-        }
-    }
-
     /// The radiance an area light's front sends every way (zero for lights
     /// with no surface).
     pub fn front_radiance(&self) -> Vec3 {
@@ -499,15 +489,14 @@ mod tests {
     fn rays_see_the_front_of_an_area_light_only() {
         let light = Light::area(Vec3::Y, Vec3::X, Vec3::Z, Vec3::splat(PI));
         let up = Ray::new(Vec3::new(0.2, 0.0, -0.3), Vec3::Y);
-        let (t, radiance) = light.intersect(&up).unwrap();
-        assert!((t - 1.0).abs() < 1e-6 && (radiance.x - 1.0).abs() < 1e-6);
-        assert!(light.intersect(&Ray::new(Vec3::new(0.2, 2.0, 0.0), -Vec3::Y)).is_none(), "back side");
-        assert!(light.intersect(&Ray::new(Vec3::new(0.6, 0.0, 0.0), Vec3::Y)).is_none(), "beside it");
-        assert!(light.intersect(&Ray { t_max: 0.5, ..up }).is_none(), "beyond t_max");
-        // The back is crossed too (it blocks rays: `SceneQuery::first`).
+        let (t, side) = light.crossing(&up).unwrap();
+        assert!((t - 1.0).abs() < 1e-6 && side == Side::Front);
+        assert!((light.front_radiance().x - 1.0).abs() < 1e-6);
+        // The back is crossed too, but does not emit (it blocks rays: `SceneQuery::first`).
         let down = Ray::new(Vec3::new(0.2, 2.0, 0.0), -Vec3::Y);
-        assert_eq!(light.crossing(&down), Some((1.0, Side::Back)));
-        assert_eq!(light.crossing(&up), Some((1.0, Side::Front)));
+        assert_eq!(light.crossing(&down), Some((1.0, Side::Back)), "back side");
+        assert!(light.crossing(&Ray::new(Vec3::new(0.6, 0.0, 0.0), Vec3::Y)).is_none(), "beside it");
+        assert!(light.crossing(&Ray { t_max: 0.5, ..up }).is_none(), "beyond t_max");
         assert!(light.crossing(&Ray::new(Vec3::new(0.2, 2.0, 0.0), Vec3::X)).is_none(), "parallel");
     }
 }
