@@ -364,60 +364,10 @@ impl<'a> Progressive<'a> {
     /// does. A part of a pass weighs as its part in the average over passes.
     pub fn run_part_of_pass(&mut self, fraction: f64) {
         let pass_start = Instant::now();
-        let ctx = self.ctx;
-        let region = ctx.config.region();
-        let density = self.density.as_ref();
-        // Split by the noise only under a time budget: a pixel's paths then
-        // depend on the pixels around, which a tile of the image (rendered
-        // on its own, to be merged) does not have at its edges. With a
-        // fixed number of passes a tile renders its pixels as the whole
-        // image does, bit for bit.
-        let extra = match ctx.config.time {
-            Some(_) => {
-                let total = (CAMERA_PATHS_PER_PASS - 1) as f64 * self.pixels.len() as f64 * fraction;
-                let width = region.width() as usize;
-                extra_paths(&self.pixels, width, ctx.config.seed, self.passes, total.round() as u64)
-            }
-            None => vec![CAMERA_PATHS_PER_PASS - 1; self.pixels.len()],
-        };
-        let (points, counts): (Vec<Option<VisiblePoint>>, Vec<RayCount>) = self
-            .pixels
-            .par_iter_mut()
-            .zip(extra)
-            .enumerate()
-            .map(|(i, (state, extra))| {
-                let mut count = RayCount::default();
-                // What the camera paths find themselves is averaged over
-                // all of the pixel's; the first leaves the visible point.
-                let mut seen = std::mem::take(&mut state.seen);
-                let mut point = None;
-                for path in 0..=extra {
-                    let index = state.paths + path;
-                    let found = visible_point(&ctx, region.pixel(i), index, state, &mut count);
-                    if path == 0 {
-                        point = found;
-                    }
-                    let this = std::mem::take(&mut state.seen);
-                    state.seen_sq += luminance(&this).powi(2);
-                    seen += this;
-                }
-                state.paths += 1 + extra;
-                state.seen = seen;
-                if let (Some(vp), Some(density)) = (&mut point, density) {
-                    if state.radius == 0.0 {
-                        state.radius = density.radius_at(vp.p);
-                        vp.radius = state.radius;
-                    }
-                }
-                (point, count)
-            })
-            .unzip();
-        for c in counts {
-            self.rays += c;
-        }
-
+        let points = self.camera_paths(fraction);
         let camera_seconds = pass_start.elapsed().as_secs_f64();
         let start = Instant::now();
+        let ctx = self.ctx;
         let per_pass = ctx.config.photons.sppm.photons_per_pass;
         let photons = ((per_pass as f64 * fraction).round() as u32).clamp(1, per_pass);
         let gathered = self.gather_photons(&points, photons);
@@ -443,6 +393,69 @@ impl<'a> Progressive<'a> {
         });
         self.passes += 1;
         self.emitted += photons as u64;
+    }
+
+    /// The camera paths of a pass, or of `fraction` of one (every pixel's
+    /// first path, that part of the others): what they find themselves
+    /// goes to their pixels, and each pixel's visible point is returned
+    /// (the pixel's starting radius set at its first).
+    fn camera_paths(&mut self, fraction: f64) -> Vec<Option<VisiblePoint>> {
+        let ctx = self.ctx;
+        let region = ctx.config.region();
+        let density = self.density.as_ref();
+        // Split by the noise only under a time budget: a pixel's paths then
+        // depend on the pixels around, which a tile of the image (rendered
+        // on its own, to be merged) does not have at its edges. With a
+        // fixed number of passes a tile renders its pixels as the whole
+        // image does, bit for bit.
+        let extra = match ctx.config.time {
+            Some(_) => {
+                let total = (CAMERA_PATHS_PER_PASS - 1) as f64 * self.pixels.len() as f64 * fraction;
+                let width = region.width() as usize;
+                extra_paths(&self.pixels, width, ctx.config.seed, self.passes, total.round() as u64)
+            }
+            None => vec![CAMERA_PATHS_PER_PASS - 1; self.pixels.len()],
+        };
+        let passes = self.passes;
+        let (points, counts): (Vec<Option<VisiblePoint>>, Vec<RayCount>) = self
+            .pixels
+            .par_iter_mut()
+            .zip(extra)
+            .enumerate()
+            .map(|(i, (state, extra))| {
+                let mut count = RayCount::default();
+                // What the camera paths find themselves is averaged over
+                // all of the pixel's; the first leaves the visible point.
+                let mut seen = std::mem::take(&mut state.seen);
+                let mut point = None;
+                for path in 0..=extra {
+                    let sample = match path {
+                        0 => CameraSample::VisiblePoint(passes),
+                        _ => CameraSample::Other(state.paths - passes + path - 1),
+                    };
+                    let found = visible_point(&ctx, region.pixel(i), sample, state, &mut count);
+                    if path == 0 {
+                        point = found;
+                    }
+                    let this = std::mem::take(&mut state.seen);
+                    state.seen_sq += luminance(&this).powi(2);
+                    seen += this;
+                }
+                state.paths += 1 + extra;
+                state.seen = seen;
+                if let (Some(vp), Some(density)) = (&mut point, density) {
+                    if state.radius == 0.0 {
+                        state.radius = density.radius_at(vp.p);
+                        vp.radius = state.radius;
+                    }
+                }
+                (point, count)
+            })
+            .unzip();
+        for c in counts {
+            self.rays += c;
+        }
+        points
     }
 
     /// The image so far, with its work counts; `elapsed` is the time to report.
@@ -601,27 +614,52 @@ fn density_positions(ctx: &Context) -> Vec<Vec3> {
     chunks.into_iter().flatten().collect()
 }
 
+/// Which of a pixel's camera paths a path is, for its Sobol samples. The
+/// paths that leave the visible points, one a pass, are the samples 0, 1,
+/// 2, ... of the pixel's stream; the others count on in a stream of their
+/// own. So the visible points alone are a prefix of one low-discrepancy
+/// sequence and stratify the pixel as finely as their number allows, and
+/// the photons a pixel gathers (a caustic's most) are averaged over its
+/// area evenly. Counted in one stream with the other paths, the visible
+/// points were every fourth sample of it, no better spread than
+/// independent jitter (BENCHMARKS.md, issue 16).
+#[derive(Debug, Clone, Copy)]
+enum CameraSample {
+    /// The path of pass `n` that leaves the visible point.
+    VisiblePoint(u32),
+    /// The pixel's `n`-th other path.
+    Other(u32),
+}
+
+/// Where the streams of the paths that leave no visible point start: past
+/// any pixel's index.
+const OTHER_PATHS_STREAM: u64 = 1 << 48;
+
 /// Follows one jittered camera path from pixel `(x, y)` to its visible
 /// point, adding what it finds itself (lights, direct light by shadow rays,
 /// the first surface's albedo, normal and depth) to `state.seen`. At a surface with both diffuse/glossy and
 /// mirror/glass parts the path stops or goes on at random, in proportion
 /// to their weights (the weight divided by that chance keeps it unbiased).
 ///
-/// The path is the pixel's `index`-th. With the Sobol sampler it draws
-/// from that sample's low-discrepancy stream, as the path tracer's samples
-/// do, so the pixel's paths over all passes stratify its area: a light's
-/// edge, where a pixel is partly light and partly wall, was the largest
-/// part of SPPM's error at long budgets with independent jitter
-/// (BENCHMARKS.md, issue 16). Otherwise from the pixel's own stream.
+/// With the Sobol sampler the path draws from its `sample`'s
+/// low-discrepancy stream, as the path tracer's samples do, so the pixel's
+/// paths over all passes stratify its area: a light's edge, where a pixel
+/// is partly light and partly wall, was the largest part of SPPM's error at
+/// long budgets with independent jitter (BENCHMARKS.md, issue 16).
+/// Otherwise from the pixel's own stream.
 fn visible_point(
     ctx: &Context,
     (x, y): (u32, u32),
-    index: u32,
+    sample: CameraSample,
     state: &mut PixelState,
     count: &mut RayCount,
 ) -> Option<VisiblePoint> {
     let (query, config) = (&ctx.query, ctx.config);
-    let stream = y as u64 * config.width as u64 + x as u64;
+    let pixel = y as u64 * config.width as u64 + x as u64;
+    let (stream, index) = match sample {
+        CameraSample::VisiblePoint(pass) => (pixel, pass),
+        CameraSample::Other(index) => (pixel + OTHER_PATHS_STREAM, index),
+    };
     let mut sobol = config.sampler.sample_stream(config.seed, stream, index);
     let rng = sobol.as_mut().unwrap_or(&mut state.rng);
     let jitter = rng.uniform2();
@@ -749,6 +787,62 @@ mod tests {
         // Nothing known yet (a first pass): three each.
         let fresh = vec![state(0, 0.0, 0.0); 5];
         assert!(extra_paths(&fresh, 5, 1, 0, 15).iter().all(|&n| n == 3));
+    }
+
+    #[test]
+    fn the_visible_points_of_a_pixel_stratify_it() {
+        // A wall that fills the view, square to it: where in its pixel a
+        // visible point fell is where it lies on the wall.
+        let scene = crate::scene::Scene::from_toml(
+            r#"
+            [camera]
+            eye = [0, 0, 3]
+            look_at = [0, 0, 0]
+            up = [0, 1, 0]
+            [materials.m]
+            diffuse = 0.5
+            [[quad]]
+            center = [0, 0, 0]
+            u = [10, 0, 0]
+            v = [0, 10, 0]
+            material = "m"
+            [[point_light]]
+            position = [0, 0, 2]
+            power = 1
+        "#,
+            std::path::Path::new("wall.toml"),
+        )
+        .unwrap();
+        let accel = crate::accel::build(crate::accel::Backend::Native, &scene.triangle_views()).unwrap();
+        let mut config = RenderConfig { width: 3, height: 2, ..scene.config.clone() };
+        config.photons.sppm.initial_radius = Some(0.1);
+        let ctx = Context::new(&scene, accel.as_ref(), &config);
+        let mut run = Progressive::new(&ctx);
+        // Where the camera's ray through `(x, y)` of the image meets the
+        // wall (at depth `z`: the scene is placed about the camera).
+        let wall = |x: f32, y: f32, z: f32| {
+            let ray = scene.camera.ray(x, y, config.width, config.height);
+            ray.origin + ray.dir * ((z - ray.origin.z) / ray.dir.z)
+        };
+        let mut cells = vec![[[0; 4]; 4]; 6];
+        for _ in 0..16 {
+            let points = run.camera_paths(1.0);
+            run.passes += 1;
+            for (i, vp) in points.iter().enumerate() {
+                let (x, y) = ((i % 3) as f32, (i / 3) as f32);
+                let p = vp.expect("every path meets the wall").p;
+                // The edges between its 4 x 4 cells, on the wall.
+                let column = (1..4).filter(|&c| p.x > wall(x + c as f32 / 4.0, y, p.z).x).count();
+                let row = (1..4).filter(|&r| p.y < wall(x, y + r as f32 / 4.0, p.z).y).count();
+                cells[i][row][column] += 1;
+            }
+        }
+        // 16 passes' visible points, one in each cell of every pixel (drawn
+        // as every fourth sample of the pixel's stream, as before, 9-12 of
+        // the 16 cells held one).
+        for (pixel, cells) in cells.iter().enumerate() {
+            assert_eq!(cells, &[[1; 4]; 4], "pixel {pixel}");
+        }
     }
 
     #[test]
