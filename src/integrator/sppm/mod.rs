@@ -2,7 +2,8 @@
 //! consistent photon mapper. Each pass
 //!
 //! 1. traces jittered camera paths from each pixel (with the Sobol sampler,
-//!    the pixel's successive samples over all passes) through mirrors and glass
+//!    the pixel's successive samples over all passes, those that leave
+//!    visible points in a sequence of their own) through mirrors and glass
 //!    to their first diffuse or glossy surface, adding the direct light
 //!    there by shadow rays (averaged over all the pixel's paths: 4 a pass;
 //!    under a time budget 4 on average, more where the pixels around are
@@ -838,8 +839,8 @@ mod tests {
             }
         }
         // 16 passes' visible points, one in each cell of every pixel (drawn
-        // as every fourth sample of the pixel's stream, as before, 9-12 of
-        // the 16 cells held one).
+        // as every fourth sample of the pixel's stream, as before, pixel 0's
+        // filled 9 of the 16 cells).
         for (pixel, cells) in cells.iter().enumerate() {
             assert_eq!(cells, &[[1; 4]; 4], "pixel {pixel}");
         }
