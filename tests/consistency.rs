@@ -132,10 +132,12 @@ fn photon_mapping_agrees_with_the_path_tracer_and_improves_with_photons() {
 }
 
 /// Progressive photon mapping on the same box: measured (32 x 32, 20k
-/// photons per pass, 4 camera paths a pass) block error 2.20%, 1.15%,
-/// 1.06% and lit-scene mean -0.40%, +0.11%, +0.08% at 16, 64, 256 passes
-/// (with one camera path a pass, against the 1024-spp reference: 3.56%,
-/// 2.27%, 1.02%).
+/// photons per pass, 2 camera paths a pass, the visible points a Sobol
+/// sequence of their own) block error 1.57%, 0.86%, 0.60% and lit-scene
+/// mean +0.19%, -0.09%, -0.03% at 16, 64, 256 passes. Before, with 4
+/// camera paths a pass and the visible points every fourth sample of the
+/// pixel's: 2.20%, 1.15%, 1.06% (with one camera path a pass, against the
+/// 1024-spp reference: 3.56%, 2.27%, 1.02%).
 #[test]
 fn progressive_photon_mapping_agrees_with_the_path_tracer_and_keeps_improving() {
     let scene = cornell();
@@ -163,7 +165,7 @@ fn progressive_photon_mapping_agrees_with_the_path_tracer_and_keeps_improving() 
         assert!(bias.abs() < 0.02, "lit-scene mean differs by {:.2}%", 100.0 * bias);
         assert!(*e < 0.05, "block error {:.2}%", 100.0 * e);
     }
-    assert!(errors[2].0 < 0.02, "block error at 256 passes {:.2}%", 100.0 * errors[2].0);
+    assert!(errors[2].0 < 0.0085, "block error at 256 passes {:.2}%", 100.0 * errors[2].0);
 }
 
 /// The components (AOVs) mean the same in every integrator: over the whole

@@ -141,9 +141,9 @@ fn a_part_of_a_pass_weighs_as_its_part() {
 /// its area, as the path tracer's samples do; independent jitter leaves
 /// the pixels on a light's edge (partly light, partly wall) noisy. The
 /// noise is measured as the difference between two seeds' direct light
-/// over the Cornell box at 32 x 32 after 8 passes (32 paths a pixel).
-/// Measured: 0.51 of the independent sampler's (0.45 when a pixel's paths
-/// were all one stream, before the paths that leave visible points got a
+/// over the Cornell box at 32 x 32 after 8 passes (16 paths a pixel).
+/// Measured: 0.64 of the independent sampler's (0.45 with 4 paths a pass,
+/// all in one stream, before the paths that leave visible points got a
 /// stream of their own; BENCHMARKS.md, issue 16).
 #[test]
 fn sobol_camera_paths_stratify_each_pixel() {

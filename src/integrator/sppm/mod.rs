@@ -5,8 +5,8 @@
 //!    the pixel's successive samples over all passes, those that leave
 //!    visible points in a sequence of their own) through mirrors and glass
 //!    to their first diffuse or glossy surface, adding the direct light
-//!    there by shadow rays (averaged over all the pixel's paths: 4 a pass;
-//!    under a time budget 4 on average, more where the pixels around are
+//!    there by shadow rays (averaged over all the pixel's paths: 2 a pass;
+//!    under a time budget 2 on average, more where the pixels around are
 //!    noisier);
 //!    the first path's surface point is the pixel's *visible point*;
 //! 2. traces a fresh batch of photons and lets every visible point gather
@@ -201,10 +201,14 @@ struct Density {
 /// path a pass left the camera's own noise (a light's edges, the steep
 /// fall-off of light on the ceiling just above a point light, its
 /// reflections) to shrink only as fast as photon passes come, the most of
-/// SPPM's error on the Cornell boxes at 256 x 256. Four make a pass about
-/// 1.5x as long there (34 passes in 5 s became 23) for 17-39% less error
-/// at equal time on those boxes (BENCHMARKS.md, "SPPM: camera paths per pass").
-const CAMERA_PATHS_PER_PASS: u32 = 4;
+/// SPPM's error on the Cornell boxes at 256 x 256 (at 4 s, 0.073 on the
+/// area-lit box where two give 0.032). Four were 17-39% better than one
+/// when the visible points were spread as independent jitter; since they
+/// stratify their pixel (`CameraSample`), two are 3-9% better than four at
+/// equal time, more passes making up for fewer paths (BENCHMARKS.md,
+/// "SPPM: camera paths per pass" and "SPPM's visible points from a Sobol
+/// sequence of their own").
+const CAMERA_PATHS_PER_PASS: u32 = 2;
 
 /// The most camera paths beyond the first a pixel takes in one pass, so
 /// that no pass waits long on a few pixels.
