@@ -434,6 +434,7 @@ impl<'a> Progressive<'a> {
                 let mut seen = std::mem::take(&mut state.seen);
                 let mut point = None;
                 for path in 0..=extra {
+                    // Of the pixel's paths so far, `passes` left visible points.
                     let sample = match path {
                         0 => CameraSample::VisiblePoint(passes),
                         _ => CameraSample::Other(state.paths - passes + path - 1),
