@@ -221,8 +221,9 @@ pub struct RenderConfig {
     pub bvh: BvhLayout,
     /// Longest chain of rays from the camera (1 = camera rays only).
     pub max_depth: u32,
-    /// Shadow-ray samples per area light at each shading point.
-    pub light_samples: u32,
+    /// Shadow-ray samples per area light at each shading point; `None`
+    /// leaves it to the integrator ([`RenderConfig::light_samples_or`]).
+    pub light_samples: Option<u32>,
     /// Constant ambient radiance times the diffuse colour: the seed report's
     /// classic look, off (zero) by default.
     pub ambient: Vec3,
@@ -265,7 +266,7 @@ impl Default for RenderConfig {
             backend: Backend::Embree,
             bvh: BvhLayout::default(),
             max_depth: 10,
-            light_samples: 4,
+            light_samples: None,
             ambient: Vec3::ZERO,
             min_throughput: 1e-4,
             seed: 0,
@@ -356,6 +357,12 @@ impl RenderConfig {
         self.region().pixels()
     }
 
+    /// Shadow rays per area light at each shading point: the setting, or
+    /// else the integrator's `default`.
+    pub fn light_samples_or(&self, default: u32) -> u32 {
+        self.light_samples.unwrap_or(default)
+    }
+
     /// The pixels rendered: the region, or the whole image.
     pub fn region(&self) -> Region {
         self.region.unwrap_or(Region { x0: 0, y0: 0, x1: self.width, y1: self.height })
@@ -369,7 +376,9 @@ impl RenderConfig {
         in_range("height", self.height, 1, MAX_IMAGE_SIDE)?;
         in_range("samples", self.samples, 1, MAX_SAMPLES)?;
         in_range("max_depth", self.max_depth, 1, MAX_DEPTH)?;
-        in_range("light_samples", self.light_samples, 1, MAX_SAMPLES)?;
+        if let Some(n) = self.light_samples {
+            in_range("light_samples", n, 1, MAX_SAMPLES)?;
+        }
         if !(self.ambient.is_finite() && self.ambient.min_element() >= 0.0) {
             return Err(Error::Setting {
                 name: "ambient",
@@ -442,8 +451,9 @@ mod tests {
     fn the_default_is_valid_and_every_limit_is_checked() {
         assert!(RenderConfig::default().validate().is_ok());
         type Breaks = fn(&mut RenderConfig);
-        let cases: [(&str, Breaks); 8] = [
+        let cases: [(&str, Breaks); 9] = [
             ("samples", |c| c.samples = 0),
+            ("light_samples", |c| c.light_samples = Some(0)),
             ("width", |c| c.width = limits::MAX_IMAGE_SIDE + 1),
             ("max_depth", |c| c.max_depth = 0),
             ("global_k", |c| c.photons.global_k = 1),

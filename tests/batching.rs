@@ -37,7 +37,7 @@ fn batched_and_single_rays_render_the_same_image() {
                 samples: 2,
                 // Batches of 16 full and cut short: 19 shadow rays per area
                 // light, up to 19 gather rays per camera sample.
-                light_samples: 19,
+                light_samples: Some(19),
                 ..scene.config.clone()
             };
             config.photons.gather_rays = 19;

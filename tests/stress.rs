@@ -259,7 +259,7 @@ fn settings_at_their_limits_render() {
         (
             "most light samples",
             RenderConfig {
-                light_samples: MAX_SAMPLES,
+                light_samples: Some(MAX_SAMPLES),
                 integrator: "whitted".parse().unwrap(),
                 ..base.clone()
             },

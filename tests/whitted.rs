@@ -72,7 +72,7 @@ fn same_image_bit_for_bit_with_one_thread_and_with_many() {
         width: 48,
         height: 40,
         samples: 4,
-        light_samples: 2,
+        light_samples: Some(2),
         integrator: Integrator::Photon,
         ..scene.config.clone()
     };
@@ -236,4 +236,65 @@ fn cli_writes_each_requested_component() {
     assert_eq!(bad.status.code(), Some(2));
     let says = String::from_utf8_lossy(&bad.stderr);
     assert!(says.contains("invalid value 'glow'") && says.contains("indirect"), "{says}");
+}
+
+/// Shadow rays per area light at each surface a camera ray meets: four for
+/// Whitted, whose samples are all its direct light gets; one for photon
+/// mapping and SPPM, whose gather rays or passes hold most of the noise;
+/// what the settings say for all three.
+#[test]
+fn shadow_rays_per_camera_ray_are_the_integrators_unless_told() {
+    // A wall that fills the view, lit by a small area light beside the view:
+    // every camera ray meets the wall, in the light.
+    let scene_text = r#"
+[camera]
+eye = [0, 0, 3]
+look_at = [0, 0, 0]
+[materials.m]
+diffuse = 0.5
+[[quad]]
+center = [0, 0, 0]
+u = [10, 0, 0]
+v = [0, 10, 0]
+material = "m"
+[[area_light]]
+center = [2, 0, 1]
+u = [0, 0.1, 0]
+v = [0.1, 0, 0]
+power = 1
+"#;
+    let scene = Scene::from_toml(scene_text, Path::new("lit-wall.toml")).unwrap();
+    assert_eq!(scene.config.light_samples, None, "left to the integrator");
+    let told =
+        Scene::from_toml(&format!("[render]\nlight_samples = 3\n{scene_text}"), Path::new("told.toml"));
+    assert_eq!(told.unwrap().config.light_samples, Some(3));
+    let accel = caustix::accel::build(Backend::Native, &scene.triangle_views()).unwrap();
+    for (integrator, light_samples, per_ray) in [
+        (Integrator::Whitted, None, 4),
+        (Integrator::Photon, None, 1),
+        (Integrator::Sppm, None, 1),
+        (Integrator::Whitted, Some(3), 3),
+        (Integrator::Photon, Some(3), 3),
+        (Integrator::Sppm, Some(3), 3),
+    ] {
+        let mut settings = RenderConfig {
+            integrator,
+            width: 3,
+            height: 2,
+            samples: 2,
+            light_samples,
+            ..scene.config.clone()
+        };
+        // No gather rays: every closest-hit ray is a camera ray.
+        settings.photons.gather_rays = 0;
+        settings.photons.global_photons = 2_000;
+        settings.photons.sppm.passes = 2;
+        settings.photons.sppm.photons_per_pass = 2_000;
+        let rendered = render(&scene, accel.as_ref(), &settings, &|_| {}).unwrap();
+        let what = format!("{}, {light_samples:?}", integrator.name());
+        assert!(rendered.film.pixels.iter().all(|c| c.direct.min_element() > 0.0), "{what}: unlit pixels");
+        let rays = rendered.stats.rays;
+        assert!(rays.closest >= 12, "{what}: {rays:?}");
+        assert_eq!(rays.shadow, rays.closest * per_ray, "{what}");
+    }
 }

@@ -102,7 +102,7 @@ pub struct SettingArgs {
     /// Longest chain of rays from the camera (overrides the scene file).
     #[arg(long)]
     max_depth: Option<u32>,
-    /// Shadow rays per area light at each shading point (overrides the scene file).
+    /// Shadow rays per area light at each shading point for whitted (default 4), photon and sppm (default 1); overrides the scene file.
     #[arg(long)]
     light_samples: Option<u32>,
     /// Photons emitted for the global map (overrides [photons] global; 0 skips it).
@@ -193,7 +193,7 @@ pub fn config(args: &SettingArgs, scene: &caustix::Scene) -> RenderConfig {
     set(&mut c.height, args.height);
     set(&mut c.samples, args.spp);
     set(&mut c.max_depth, args.max_depth);
-    set(&mut c.light_samples, args.light_samples);
+    c.light_samples = args.light_samples.or(c.light_samples);
     let p = &mut c.photons;
     set(&mut p.global_photons, args.photons);
     set(&mut p.caustic_photons, args.caustic_photons);

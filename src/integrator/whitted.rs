@@ -19,6 +19,11 @@ use crate::film::Sample;
 use crate::query::{Interaction, RayCount, SurfacePoint};
 use crate::sampling::Rng;
 
+/// Shadow rays per area light at each shading point unless the scene says:
+/// a camera sample's direct light is all its estimate of the light there
+/// (photon mapping, whose samples also gather, takes one).
+const LIGHT_SAMPLES: u32 = 4;
+
 /// The Whitted integrator.
 pub struct Whitted;
 
@@ -32,7 +37,11 @@ impl Integrator for Whitted {
     }
 
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
-        let tracer = WhittedTracer { ctx, surface_light: None };
+        let tracer = WhittedTracer {
+            ctx,
+            surface_light: None,
+            light_samples: ctx.config.light_samples_or(LIGHT_SAMPLES),
+        };
         tracer.render(progress, Vec::new())
     }
 }
@@ -58,6 +67,8 @@ pub struct WhittedTracer<'a> {
     pub ctx: &'a Context<'a>,
     /// Caustics and indirect light, if the integrator has them.
     pub surface_light: Option<&'a dyn SurfaceLight>,
+    /// Shadow rays per area light at each diffuse or glossy surface.
+    pub light_samples: u32,
 }
 
 impl WhittedTracer<'_> {
@@ -97,7 +108,7 @@ impl WhittedTracer<'_> {
 
         let mut out = Sample { depth: sp.t * ray.dir.length(), ..Sample::default() };
         if bsdf.has_smooth() {
-            let sampling = LightSampling::Stratified { samples: config.light_samples };
+            let sampling = LightSampling::Stratified { samples: self.light_samples };
             out.direct = direct_light(query, &sp, &bsdf, sampling, rng, count);
             out.indirect = m.diffuse * config.ambient;
             if let Some(extra) = self.surface_light {

@@ -107,8 +107,8 @@ pub struct RenderSection {
     pub bvh: crate::accel::BvhLayout,
     #[serde(default = "default_max_depth", deserialize_with = "max_depth")]
     pub max_depth: u32,
-    #[serde(default = "default_light_samples", deserialize_with = "light_samples")]
-    pub light_samples: u32,
+    #[serde(default, deserialize_with = "light_samples")]
+    pub light_samples: Option<u32>,
     #[serde(default)]
     pub ambient: Option<Power>,
     #[serde(default)]
@@ -126,7 +126,7 @@ impl Default for RenderSection {
             backend: default_backend(),
             bvh: Default::default(),
             max_depth: default_max_depth(),
-            light_samples: default_light_samples(),
+            light_samples: None,
             ambient: None,
             denoise: false,
             sampler: Default::default(),
@@ -151,12 +151,8 @@ fn max_depth<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     whole_number(d, 1, MAX_DEPTH)
 }
 
-fn default_light_samples() -> u32 {
-    crate::config::RenderConfig::default().light_samples
-}
-
-fn light_samples<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    whole_number(d, 1, MAX_SAMPLES)
+fn light_samples<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<u32>, D::Error> {
+    whole_number(d, 1, MAX_SAMPLES).map(Some)
 }
 
 #[derive(Debug, Deserialize)]

@@ -176,7 +176,7 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
         .iter()
         .map(|&gather| {
             let light = MapLight { gather_per_sample: gather, ..*light };
-            let tracer = WhittedTracer { ctx, surface_light: Some(&light) };
+            let tracer = light.tracer(ctx);
             let traced = |ctx: &Context, ray: &Ray, rng: &mut Rng, count: &mut RayCount| {
                 WhittedTracer { ctx, ..tracer }.radiance(ray, 0, Vec3::ONE, rng, count)
             };

@@ -210,6 +210,14 @@ struct Density {
 /// sequence of their own").
 const CAMERA_PATHS_PER_PASS: u32 = 2;
 
+/// Shadow rays per area light at each camera path's surfaces unless the
+/// scene says. A pixel's direct light is averaged over all its paths of
+/// all passes, so one a path is plenty: at 32 passes the direct light's
+/// noise was 0.0039 with one and 0.0030 with four, beside 0.048 for the
+/// whole image, and a time budget ran 17-33% more passes (BENCHMARKS.md,
+/// "One shadow ray where passes or gather rays average it").
+const LIGHT_SAMPLES: u32 = 1;
+
 /// The most camera paths beyond the first a pixel takes in one pass, so
 /// that no pass waits long on a few pixels.
 const MAX_EXTRA_PATHS: u32 = 64;
@@ -688,7 +696,7 @@ fn visible_point(
         let m = query.material(&sp);
         let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
         if bsdf.has_smooth() {
-            let sampling = LightSampling::Stratified { samples: config.light_samples };
+            let sampling = LightSampling::Stratified { samples: config.light_samples_or(LIGHT_SAMPLES) };
             seen.direct += weight * direct_light(query, &sp, &bsdf, sampling, rng, count);
             seen.indirect += weight * m.diffuse * config.ambient;
             if !found_surface {
