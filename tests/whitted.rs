@@ -1,5 +1,6 @@
 //! The Whitted renderer against analytic answers: direct light from a point
-//! light, a mirror, and the same image whatever the thread count.
+//! light, a mirror, and the same image whatever the thread count; and the
+//! shadow rays it, photon mapping and SPPM take at each surface.
 
 mod common;
 
