@@ -47,7 +47,9 @@ fn main() {
     assert!(!scene.materials.iter().any(|m| m.is_specular()), "the spheres were made diffuse");
     let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).expect("embree");
     let start = Instant::now();
-    let stored = trace(&SceneQuery::new(&scene, accel.as_ref()), Pass::Caustic, 200_000, 16, 0).len();
+    let stored =
+        trace(&SceneQuery::new(&scene, accel.as_ref()), Pass::Caustic, 200_000, 16, 0, scene.config.sampler)
+            .len();
     println!(
         "caustic pass on the diffuse-only Cornell box (skipped by the renderer): {:.3} s for 200000 photons, {stored} stored",
         start.elapsed().as_secs_f64()
@@ -56,7 +58,9 @@ fn main() {
     let scene = Scene::from_toml(BALL, Path::new("ball.toml")).expect("valid scene");
     let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).expect("embree");
     let start = Instant::now();
-    let stored = trace(&SceneQuery::new(&scene, accel.as_ref()), Pass::Caustic, 400_000, 16, 3).len();
+    let stored =
+        trace(&SceneQuery::new(&scene, accel.as_ref()), Pass::Caustic, 400_000, 16, 3, scene.config.sampler)
+            .len();
     println!(
         "ball lens, caustic photons aimed at the ball: {stored} stored of 400000 emitted in {:.3} s \
          (uniform emission: about {} would reach the ball)",

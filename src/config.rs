@@ -235,8 +235,9 @@ pub struct RenderConfig {
     pub seed: u64,
     /// Photon counts and estimates.
     pub photons: PhotonConfig,
-    /// Where camera samples get their random numbers (Whitted, photon
-    /// mapping, the path tracer; SPPM keeps one stream per pixel).
+    /// Where camera samples get their random numbers, and photons theirs
+    /// (photon mapping and SPPM: [`crate::photon::PhotonNumbers`]; VCM's
+    /// light paths draw independent numbers either way).
     pub sampler: crate::sampling::SamplerKind,
     /// Refine until this many seconds have passed instead of taking a fixed
     /// number of samples (`None`): the path tracer, Whitted and photon

@@ -16,7 +16,8 @@ pub enum SamplerKind {
     /// Padded Owen-scrambled Sobol points per sample ([`Rng::sobol`]):
     /// every dimension pair (pixel position, light sample, bounce) is
     /// stratified over the pixel's samples. The default: 6-30% lower RMSE
-    /// at equal samples (BENCHMARKS.md).
+    /// at equal samples (BENCHMARKS.md). Photons too: a light's photons
+    /// leave it stratified in position and direction together ([`Sobol4`]).
     #[default]
     Sobol,
 }
@@ -42,10 +43,10 @@ impl std::str::FromStr for SamplerKind {
     }
 }
 
-/// A pixel sample's random numbers: PCG32 (O'Neill 2014), small, fast,
-/// statistically good and cheap to seed into independent streams; or, made
-/// by [`Rng::sobol`], a low-discrepancy stream whose every 2D draw is the
-/// next dimension pair of an Owen-scrambled Sobol sequence.
+/// A pixel sample's (or a photon's) random numbers: PCG32 (O'Neill 2014),
+/// small, fast, statistically good and cheap to seed into independent
+/// streams; or, made by [`Rng::sobol`], a low-discrepancy stream whose every
+/// 2D draw is the next dimension pair of an Owen-scrambled Sobol sequence.
 #[derive(Debug, Clone)]
 pub struct Rng {
     state: u64,
@@ -116,21 +117,48 @@ fn sobol_pair(index: u32) -> (u32, u32) {
 
 /// The second dimension of [`sobol_pair`] with its bits reversed.
 fn sobol_second_reversed(index: u32) -> u32 {
-    (0..4).fold(0, |y, byte| y ^ SOBOL_BYTES[byte][(index >> (8 * byte)) as usize & 0xff])
+    sobol_reversed(&SOBOL_BYTES, index)
+}
+
+/// A Sobol dimension at `index`, bits reversed, from its byte tables.
+#[inline]
+fn sobol_reversed(tables: &[[u32; 256]; 4], index: u32) -> u32 {
+    (0..4).fold(0, |y, byte| y ^ tables[byte][(index >> (8 * byte)) as usize & 0xff])
+}
+
+/// The 32 direction numbers of a Sobol dimension (as 32-bit fractions,
+/// most significant first) from its primitive polynomial of `degree`, its
+/// inner coefficients `a` (bits, highest power first) and its initial
+/// numbers `m` (Joe and Kuo 2008): `v_k = m_k / 2^k` for `k <= degree`,
+/// then `v_k = a_1 v_(k-1) ^ ... ^ a_(degree-1) v_(k-degree+1) ^ v_(k-degree)
+/// ^ (v_(k-degree) >> degree)`.
+const fn direction_numbers(degree: usize, a: u32, m: [u32; 3]) -> [u32; 32] {
+    let mut v = [0u32; 32];
+    let mut k = 0;
+    while k < 32 {
+        if k < degree {
+            v[k] = m[k] << (31 - k);
+        } else {
+            let mut x = v[k - degree] ^ (v[k - degree] >> degree);
+            let mut j = 1;
+            while j < degree {
+                if (a >> (degree - 1 - j)) & 1 != 0 {
+                    x ^= v[k - j];
+                }
+                j += 1;
+            }
+            v[k] = x;
+        }
+        k += 1;
+    }
+    v
 }
 
 /// For each byte of an index and each value of that byte, the XOR of the
-/// second Sobol dimension's direction numbers of its set bits, bits
-/// reversed.
-const SOBOL_BYTES: [[u32; 256]; 4] = {
-    let mut directions = [0u32; 32];
-    let mut v = 1u32 << 31;
-    let mut k = 0;
-    while k < 32 {
-        directions[k] = v;
-        v ^= v >> 1;
-        k += 1;
-    }
+/// direction numbers of its set bits, bits reversed: a dimension's value
+/// at any index in four lookups (a loop over the bits of a shuffled index
+/// branched unpredictably: 5% of a photon-mapped render).
+const fn byte_tables(directions: [u32; 32]) -> [[u32; 256]; 4] {
     let mut tables = [[0u32; 256]; 4];
     let mut byte = 0;
     while byte < 4 {
@@ -150,7 +178,15 @@ const SOBOL_BYTES: [[u32; 256]; 4] = {
         byte += 1;
     }
     tables
-};
+}
+
+/// The second Sobol dimension (polynomial `x + 1`): `v_k = v_(k-1) ^ (v_(k-1) >> 1)`.
+const SOBOL_BYTES: [[u32; 256]; 4] = byte_tables(direction_numbers(1, 0, [1, 0, 0]));
+
+/// The third and fourth (Joe and Kuo's dimensions 3 and 4: `x^2 + x + 1`
+/// with `m = 1, 3`, and `x^3 + x + 1` with `m = 1, 3, 1`).
+const SOBOL_BYTES_3RD: [[u32; 256]; 4] = byte_tables(direction_numbers(2, 1, [1, 3, 0]));
+const SOBOL_BYTES_4TH: [[u32; 256]; 4] = byte_tables(direction_numbers(3, 1, [1, 3, 1]));
 
 /// A 32-bit fraction as a float in `[0, 1)`.
 fn fraction(bits: u32) -> f32 {
@@ -184,6 +220,42 @@ impl Sobol {
         let seed = mix(self.seed, self.pair);
         self.pair += 1;
         (seed, scramble_reversed(self.index_reversed, mix(seed, 1)))
+    }
+}
+
+/// A 4D Owen-scrambled Sobol sequence: dimensions 0 to 3 of the Sobol
+/// sequence at one shuffled index, each coordinate scrambled on its own
+/// (Burley 2020), for a light sample's position and direction together.
+/// Padded pairs stratify each of the two alone, which for a photon aimed
+/// past an object, say, is no better than independent numbers (the test
+/// `sobol_photons_leave_a_light_stratified_in_position_and_direction`);
+/// these points are a (3, m, 4)-net in every block of 2^m. The scrambles
+/// are hashed once per sequence, so a point costs five scrambles and
+/// twelve table lookups.
+#[derive(Debug, Clone, Copy)]
+pub struct Sobol4 {
+    /// The index shuffle's seed, and each coordinate's.
+    index_seed: u32,
+    seeds: [u32; 4],
+}
+
+impl Sobol4 {
+    /// The sequence of `stream` (a light) under `seed`.
+    pub fn new(seed: u64, stream: u64) -> Sobol4 {
+        let words = [seed as u32, (seed >> 32) as u32, stream as u32, (stream >> 32) as u32];
+        let hashed = words.into_iter().fold(0x5_0B04, mix);
+        Sobol4 { index_seed: mix(hashed, 1), seeds: [2, 3, 4, 5].map(|d| mix(hashed, d)) }
+    }
+
+    /// Point `index` of the sequence, as two pairs of uniforms in `[0, 1)`.
+    pub fn point(&self, index: u32) -> (Vec2, Vec2) {
+        let i = scramble_reversed(index.reverse_bits(), self.index_seed);
+        let [s0, s1, s2, s3] = self.seeds;
+        let x0 = scramble_reversed(i, s0);
+        let x1 = scramble_reversed(sobol_reversed(&SOBOL_BYTES, i), s1);
+        let x2 = scramble_reversed(sobol_reversed(&SOBOL_BYTES_3RD, i), s2);
+        let x3 = scramble_reversed(sobol_reversed(&SOBOL_BYTES_4TH, i), s3);
+        (Vec2::new(fraction(x0), fraction(x1)), Vec2::new(fraction(x2), fraction(x3)))
     }
 }
 
@@ -357,6 +429,63 @@ mod tests {
         for index in (0..4096).chain((0..4096).map(|_| rng.next_u32())).chain([u32::MAX, 1 << 31]) {
             assert_eq!(sobol_pair(index).1, by_bits(index), "index {index:#x}");
         }
+    }
+
+    #[test]
+    fn the_third_and_fourth_dimensions_are_joe_and_kuos() {
+        // Sobol points 0..63 of dimensions 3 and 4 in 64ths, from SciPy's
+        // `qmc.Sobol(d=4, scramble=False)` (Joe and Kuo's numbers; SciPy
+        // lists them in Gray-code order, here by index).
+        let third = [
+            0, 32, 48, 16, 24, 56, 40, 8, 36, 4, 20, 52, 60, 28, 12, 44, 58, 26, 10, 42, 34, 2, 18, 50, 30,
+            62, 46, 14, 6, 38, 54, 22, 23, 55, 39, 7, 15, 47, 63, 31, 51, 19, 3, 35, 43, 11, 27, 59, 45, 13,
+            29, 61, 53, 21, 5, 37, 9, 41, 57, 25, 17, 49, 33, 1,
+        ];
+        let fourth = [
+            0, 32, 48, 16, 8, 40, 56, 24, 20, 52, 36, 4, 28, 60, 44, 12, 62, 30, 14, 46, 54, 22, 6, 38, 42,
+            10, 26, 58, 34, 2, 18, 50, 29, 61, 45, 13, 21, 53, 37, 5, 9, 41, 57, 25, 1, 33, 49, 17, 35, 3,
+            19, 51, 43, 11, 27, 59, 55, 23, 7, 39, 63, 31, 15, 47,
+        ];
+        for index in 0..64u32 {
+            let at = |tables| sobol_reversed(tables, index).reverse_bits() >> 26;
+            assert_eq!(at(&SOBOL_BYTES_3RD), third[index as usize], "index {index}");
+            assert_eq!(at(&SOBOL_BYTES_4TH), fourth[index as usize], "index {index}");
+        }
+    }
+
+    /// Whether 256 4D points (two pairs each) are a
+    /// (3, 8, 4)-net in base 2, as the first four Sobol dimensions are:
+    /// every box of volume 2^-5 whose sides are halvings of the axes (2^k_d
+    /// parts on axis d, the k_d summing to 5) holds 8 samples.
+    fn is_a_3_8_4_net(point: impl Fn(u32) -> (Vec2, Vec2)) -> bool {
+        let points: Vec<[f32; 4]> = (0..256)
+            .map(|i| {
+                let (a, b) = point(i);
+                [a.x, a.y, b.x, b.y]
+            })
+            .collect();
+        let splits = (0..6usize.pow(4)).map(|n| [n % 6, n / 6 % 6, n / 36 % 6, n / 216]);
+        splits.filter(|k| k.iter().sum::<usize>() == 5).all(|k| {
+            let mut boxes = [0u32; 32];
+            for p in &points {
+                let cell = (0..4).fold(0, |cell, d| (cell << k[d]) | (p[d] * (1 << k[d]) as f32) as usize);
+                boxes[cell] += 1;
+            }
+            boxes.iter().all(|&n| n == 8)
+        })
+    }
+
+    #[test]
+    fn a_4d_stream_is_stratified_in_its_first_four_dimensions() {
+        for seed in [1, 2, 3] {
+            let sequence = Sobol4::new(seed, 9);
+            assert!(is_a_3_8_4_net(|i| sequence.point(i)), "seed {seed}");
+        }
+        // Padded pairs are not, across pairs.
+        assert!(!is_a_3_8_4_net(|i| {
+            let mut rng = Rng::sobol(1, 9, i);
+            (rng.uniform2(), rng.uniform2())
+        }));
     }
 
     #[test]

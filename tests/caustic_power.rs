@@ -13,7 +13,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use caustix::accel::{build, Backend};
-use caustix::photon::{emit, Arrival};
+use caustix::photon::{emit, Arrival, PhotonNumbers};
 use caustix::query::SceneQuery;
 use caustix::scene::Scene;
 
@@ -151,7 +151,7 @@ fn measured(scene: &Scene, photons: u32) -> f64 {
         &query,
         photons,
         8,
-        7,
+        PhotonNumbers::for_sampler(scene.config.sampler, 7, 0),
         true,
         || 0.0f64,
         |sum: &mut f64, a: &Arrival| {
@@ -227,7 +227,7 @@ fn the_caustic_estimate_over_the_floor_holds_the_photons_power() {
     let mut photons = scene.config.photons.clone();
     (photons.global_photons, photons.caustic_photons) = (0, 200_000);
     let diagonal = caustix::integrator::Context::diagonal_of(&scene);
-    let maps = caustix::photon::build_maps(&query, &photons, 0, diagonal);
+    let maps = caustix::photon::build_maps(&query, &photons, 0, scene.config.sampler, diagonal);
     let map = maps.caustic.expect("a caustic map");
     // The window: the floor within 3 of the axis, where the focused light lands.
     let half = 3.0f32;

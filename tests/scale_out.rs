@@ -179,6 +179,8 @@ fn bad_maps_and_tiles_are_clear_errors_with_no_output() {
     // Other settings, named with both values; another scene.
     let e = render_with(&map, &["--seed", "3"]);
     assert!(e.contains("made with other photon settings (--seed 0 in the file, 3 now)"), "{e}");
+    let e = render_with(&map, &["--sampler", "independent"]);
+    assert!(e.contains("--sampler sobol in the file, independent now"), "{e}");
     let scene_text = std::fs::read_to_string(cornell()).unwrap();
     let brighter = common::write(d, "cornell.toml", &brighten_first_light(&scene_text));
     let scene = brighter.clone();

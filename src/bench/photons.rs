@@ -18,6 +18,7 @@ use super::resident_bytes;
 use crate::accel::Intersector;
 use crate::photon::map::{Photon, PhotonMap};
 use crate::photon::{trace, Pass};
+use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
 /// What one photon count cost.
@@ -65,7 +66,8 @@ pub fn measure(
     for (i, &emitted) in counts.iter().enumerate() {
         let start = Instant::now();
         let query = crate::query::SceneQuery::new(scene, accel);
-        let photons = trace(&query, Pass::Global { keep_direct: true }, emitted, 16, 0);
+        let photons =
+            trace(&query, Pass::Global { keep_direct: true }, emitted, 16, 0, SamplerKind::default());
         let trace_seconds = start.elapsed().as_secs_f64();
         let stored = photons.len();
         let step = (stored / queries.max(1)).max(1);

@@ -52,7 +52,13 @@ pub fn measure(
             let start = Instant::now();
             let query = crate::query::SceneQuery::new(scene, &embree);
             let b = scene.bounds();
-            drop(build_maps(&query, &settings.photons, settings.seed, (b.max - b.min).length()));
+            drop(build_maps(
+                &query,
+                &settings.photons,
+                settings.seed,
+                settings.sampler,
+                (b.max - b.min).length(),
+            ));
             let photons = start.elapsed().as_secs_f64();
             let start = Instant::now();
             let rendered = render(scene, &embree, settings, &|_| {})?;

@@ -84,9 +84,11 @@ pub struct SettingArgs {
     /// in available memory; the default). Overrides the scene's [render] bvh.
     #[arg(long, value_parser = named::<BvhLayout>(BvhLayout::NAMES.map(|(n, _)| n)))]
     bvh: Option<BvhLayout>,
-    /// Where camera samples get their random numbers: independent (stratified
-    /// pixel positions) or sobol (Owen-scrambled Sobol points in every
-    /// dimension). Overrides the scene's [render] sampler.
+    /// Where camera samples and photons get their random numbers:
+    /// independent (stratified pixel positions, a stream per photon) or
+    /// sobol (Owen-scrambled Sobol points in every dimension of a camera
+    /// sample; a light's photons stratified in position and direction
+    /// together). Overrides the scene's [render] sampler.
     #[arg(long, value_parser = named::<SamplerKind>(SamplerKind::NAMES.map(|(n, _)| n)))]
     sampler: Option<SamplerKind>,
     /// Image width in pixels (overrides the scene file).

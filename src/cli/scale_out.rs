@@ -50,8 +50,9 @@ pub fn photons(args: PhotonsArgs) -> anyhow::Result<()> {
     let (pool, accel) = pool_and_accel(threads, &scene, &settings)?;
     let diagonal = caustix::integrator::Context::diagonal_of(&scene);
     let query = caustix::query::SceneQuery::new(&scene, accel.as_ref());
-    let maps =
-        pool.install(|| caustix::photon::build_maps(&query, &settings.photons, settings.seed, diagonal));
+    let maps = pool.install(|| {
+        caustix::photon::build_maps(&query, &settings.photons, settings.seed, settings.sampler, diagonal)
+    });
     let start = Instant::now();
     caustix::photon::file::save(&output, &maps, &scene, &settings, diagonal).map_err(in_flags)?;
     let s = &maps.stats;

@@ -6,8 +6,9 @@
 //! ```text
 //! "CXPM" u32 version
 //! u64 scene fingerprint (Scene::fingerprint)
-//! the settings the maps depend on: u64 seed, u32 global photons, u32 caustic photons,
-//!   u32 max bounces, u8 for gathering, u32 global k, f32 global radius
+//! the settings the maps depend on: u64 seed, u8 sampler (0 Sobol, 1
+//!   independent), u32 global photons, u32 caustic photons, u32 max bounces,
+//!   u8 for gathering, u32 global k, f32 global radius
 //! stats: u64 global emitted, u64 caustic emitted, f64 trace s, f64 build s,
 //!   u64 notes, each u32 length + UTF-8
 //! global map, caustic map: u8 present; u64 photons, each 12 f32 (position,
@@ -30,16 +31,24 @@ use super::map::{IrradianceRecord, Photon, PhotonMap};
 use super::{PhotonMaps, PhotonStats};
 use crate::config::RenderConfig;
 use crate::error::{Error, Result};
+use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
+/// A sampler's name as `--sampler` takes it.
+fn sampler_name(sampler: SamplerKind) -> &'static str {
+    SamplerKind::NAMES.iter().find(|(_, kind)| *kind == sampler).map_or("?", |(name, _)| name)
+}
+
 const MAGIC: &[u8; 4] = b"CXPM";
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 
 /// What a scene's photon maps depend on besides the scene: two maps are
 /// interchangeable when these and the scene's fingerprint agree.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct MapSettings {
     seed: u64,
+    /// The photons' numbers: Sobol or independent (`PhotonNumbers`).
+    sampler: SamplerKind,
     global_photons: u32,
     caustic_photons: u32,
     max_bounces: u32,
@@ -53,6 +62,7 @@ impl MapSettings {
         let p = &config.photons;
         MapSettings {
             seed: config.seed,
+            sampler: config.sampler,
             global_photons: p.global_photons,
             caustic_photons: p.caustic_photons,
             max_bounces: p.max_bounces,
@@ -72,6 +82,7 @@ impl MapSettings {
             }
         };
         differ("--seed", self.seed.to_string(), asked.seed.to_string());
+        differ("--sampler", sampler_name(self.sampler).into(), sampler_name(asked.sampler).into());
         differ("--photons", self.global_photons.to_string(), asked.global_photons.to_string());
         differ("--caustic-photons", self.caustic_photons.to_string(), asked.caustic_photons.to_string());
         differ("max_bounces", self.max_bounces.to_string(), asked.max_bounces.to_string());
@@ -98,6 +109,10 @@ pub fn save(
     w.u64(scene.fingerprint());
     let s = MapSettings::of(config, diagonal);
     w.u64(s.seed);
+    w.0.push(match s.sampler {
+        SamplerKind::Sobol => 0,
+        SamplerKind::Independent => 1,
+    });
     w.u32(s.global_photons);
     w.u32(s.caustic_photons);
     w.u32(s.max_bounces);
@@ -281,6 +296,11 @@ impl Reader<'_> {
     fn settings(&mut self) -> std::result::Result<MapSettings, Failure> {
         Ok(MapSettings {
             seed: self.u64()?,
+            sampler: match self.u8()? {
+                0 => SamplerKind::Sobol,
+                1 => SamplerKind::Independent,
+                n => return Err(Some(format!("sampler {n} is none known: corrupted"))),
+            },
             global_photons: self.u32()?,
             caustic_photons: self.u32()?,
             max_bounces: self.u32()?,

@@ -12,7 +12,9 @@
 //!
 //! Every photon carries its light's power divided by the number emitted
 //! from that light: physical units, no tuning constants. Each photon has its
-//! own random stream, so the maps do not depend on the thread count.
+//! own random numbers (under the Sobol sampler, a light's photons leave it
+//! stratified in position and direction: [`PhotonNumbers`]), so the maps do
+//! not depend on the thread count.
 
 mod cell_table;
 mod cells;
@@ -27,14 +29,14 @@ mod runs;
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::accel::Ray;
 use crate::bsdf::{russian_roulette, Bsdf};
 use crate::config::PhotonConfig;
 use crate::query::{Interaction, RayCount, SceneQuery};
-use crate::sampling::{around, uniform_cone, Rng};
+use crate::sampling::{around, uniform_cone, Rng, SamplerKind, Sobol4};
 use crate::scene::Scene;
 pub use map::{Estimate, Photon, PhotonMap};
 
@@ -84,9 +86,16 @@ pub enum Pass {
 
 /// Traces and stores the maps the scene needs, skipping the ones it does
 /// not (and saying so in the stats).
-/// `seed` chooses the photons' random streams; default radii are fractions
-/// of the scene's bounding-box `diagonal`.
-pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagonal: f32) -> PhotonMaps {
+/// `seed` chooses the photons' random numbers, drawn as `sampler` says
+/// ([`PhotonNumbers::for_sampler`]); default radii are fractions of the
+/// scene's bounding-box `diagonal`.
+pub fn build_maps(
+    query: &SceneQuery,
+    settings: &PhotonConfig,
+    seed: u64,
+    sampler: SamplerKind,
+    diagonal: f32,
+) -> PhotonMaps {
     let scene = query.scene;
     let mut stats = PhotonStats::default();
     let has_specular = scene.meshes.iter().any(|m| scene.materials[m.material].is_specular());
@@ -97,7 +106,7 @@ pub fn build_maps(query: &SceneQuery, settings: &PhotonConfig, seed: u64, diagon
     // Traces a map's photons.
     let traced = |pass: Pass, count: u32, stats: &mut PhotonStats| {
         let start = Instant::now();
-        let photons = trace(query, pass, count, settings.max_bounces, seed);
+        let photons = trace(query, pass, count, settings.max_bounces, seed, sampler);
         stats.trace_seconds += start.elapsed().as_secs_f64();
         photons
     };
@@ -243,13 +252,20 @@ pub struct Arrival {
 /// with cones): photons that could only land on diffuse surfaces directly
 /// would be thrown away anyway. Each carries `intensity / pdf / n`, so the
 /// estimate is unchanged, with far more photons where caustics form.
-pub fn trace(query: &SceneQuery, pass: Pass, count: u32, max_bounces: u32, seed: u64) -> Vec<Photon> {
+pub fn trace(
+    query: &SceneQuery,
+    pass: Pass,
+    count: u32,
+    max_bounces: u32,
+    seed: u64,
+    sampler: SamplerKind,
+) -> Vec<Photon> {
     let stream_seed = seed ^ if pass == Pass::Caustic { 0xC0FFEE } else { 0x61_0BA1 };
     let chunks = emit(
         query,
         count,
         max_bounces,
-        stream_seed,
+        PhotonNumbers::for_sampler(sampler, stream_seed, 0),
         pass == Pass::Caustic,
         Vec::new,
         |stored: &mut Vec<Photon>, arrival: &Arrival| {
@@ -267,14 +283,79 @@ pub fn trace(query: &SceneQuery, pass: Pass, count: u32, max_bounces: u32, seed:
     chunks.into_iter().flatten().collect()
 }
 
+/// Where each photon's random numbers come from.
+#[derive(Debug, Clone, Copy)]
+pub enum PhotonNumbers {
+    /// Photon `i` draws from the PCG32 stream `(seed, i)`.
+    Independent {
+        /// Chooses the streams.
+        seed: u64,
+    },
+    /// Photon `i` leaves its light at point `first + i` of the light's 4D
+    /// Sobol sequence ([`Sobol4`]): where on the light it leaves and in
+    /// which direction are stratified together over all the photons so
+    /// far, those of earlier calls (SPPM's passes) too, so a patch of the
+    /// scene gets its share of photons more evenly than at random (a glass
+    /// sphere's caustic had 12-25% less noise, BENCHMARKS.md). Its bounces
+    /// draw from a PCG32 stream of its own. With several lights, each
+    /// light's photons of a call are a block of its sequence.
+    Sobol {
+        /// Chooses the scrambling and the bounces' streams.
+        seed: u64,
+        /// Photons emitted before this call.
+        first: u64,
+    },
+}
+
+impl PhotonNumbers {
+    /// `Sobol` under the Sobol sampler, else `Independent` (then `first`
+    /// plays no part: `seed` must differ from call to call).
+    pub fn for_sampler(sampler: SamplerKind, seed: u64, first: u64) -> PhotonNumbers {
+        match sampler {
+            SamplerKind::Sobol => PhotonNumbers::Sobol { seed, first },
+            SamplerKind::Independent => PhotonNumbers::Independent { seed },
+        }
+    }
+
+    /// Each of `lights` lights' sequence (none for independent numbers).
+    fn sequences(self, lights: usize) -> Vec<Sobol4> {
+        match self {
+            PhotonNumbers::Independent { .. } => Vec::new(),
+            PhotonNumbers::Sobol { seed, .. } => (0..lights as u64).map(|l| Sobol4::new(seed, l)).collect(),
+        }
+    }
+
+    /// Photon `index` of the call from light `light`: the uniforms of its
+    /// light sample (position, direction) and the numbers for its bounces.
+    /// `sequences` are [`PhotonNumbers::sequences`].
+    fn light_sample(self, light: usize, index: u64, sequences: &[Sobol4]) -> (Vec2, Vec2, Rng) {
+        match self {
+            PhotonNumbers::Independent { seed } => {
+                let mut rng = Rng::new(seed, index);
+                let (u, v) = (rng.uniform2(), rng.uniform2());
+                (u, v, rng)
+            }
+            PhotonNumbers::Sobol { seed, first } => {
+                let i = first + index;
+                // A sequence holds 2^32 points; past that, another.
+                let (u, v) = match i >> 32 {
+                    0 => sequences[light].point(i as u32),
+                    wraps => Sobol4::new(seed, light as u64 ^ wraps << 32).point(i as u32),
+                };
+                (u, v, Rng::new(seed ^ (light as u64).wrapping_mul(0xA24B_AED4_963E_E407), i))
+            }
+        }
+    }
+}
+
 /// Photons traced per work item: the unit of parallelism, and of order.
 const CHUNK: u64 = 4096;
 
 /// Emits `count` photons from all lights in proportion to their power, each
 /// carrying its light's power over the photons that light emits, and traces
 /// them. `arrive` sees each photon at every diffuse or glossy surface it
-/// reaches and says whether the photon goes on. Photon `i` draws from the
-/// random stream `(stream_seed, i)`; the photons are split into chunks of
+/// reaches and says whether the photon goes on. Photon `i` draws its
+/// random numbers as `numbers` says; the photons are split into chunks of
 /// consecutive indices, each with its own state from `start`, returned in
 /// index order, so the result never depends on the thread count.
 ///
@@ -285,7 +366,7 @@ pub fn emit<T: Send>(
     query: &SceneQuery,
     count: u32,
     max_bounces: u32,
-    stream_seed: u64,
+    numbers: PhotonNumbers,
     aim_at_specular: bool,
     start: impl Fn() -> T + Sync,
     arrive: impl Fn(&mut T, &Arrival) -> bool + Sync,
@@ -321,22 +402,23 @@ pub fn emit<T: Send>(
         })
         .collect();
 
+    let sequences = numbers.sequences(scene.lights.len());
     (0..emitted.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
             let mut state = start();
             for index in chunk * CHUNK..((chunk + 1) * CHUNK).min(emitted) {
                 let light = starts.partition_point(|&s| s <= index) - 1;
-                let mut rng = Rng::new(stream_seed, index);
+                let (u, v, mut rng) = numbers.light_sample(light, index, &sequences);
                 let (ray, power) = match &aims[light] {
                     Some(cones) => {
-                        let dir = cones.sample(rng.uniform2(), rng.uniform2());
+                        let dir = cones.sample(u, v);
                         match scene.lights[light].intensity(dir) {
                             Some((origin, intensity)) => (Ray::new(origin, dir), intensity / cones.pdf(dir)),
                             None => continue,
                         }
                     }
-                    None => scene.lights[light].emit(rng.uniform2(), rng.uniform2()),
+                    None => scene.lights[light].emit(u, v),
                 };
                 let power = power / per_light[light] as f32;
                 trace_photon(query, ray, power, max_bounces, &mut rng, &mut |a| arrive(&mut state, a));

@@ -9,9 +9,11 @@
 //!    under a time budget 2 on average, more where the pixels around are
 //!    noisier);
 //!    the first path's surface point is the pixel's *visible point*;
-//! 2. traces a fresh batch of photons and lets every visible point gather
-//!    the photons that land within its pixel's radius (a range search from
-//!    each point, `photon::ranges`);
+//! 2. traces a fresh batch of photons (with the Sobol sampler, the next
+//!    photons of each light's low-discrepancy sequence, so that all the
+//!    passes' photons together leave the lights stratified) and lets every
+//!    visible point gather the photons that land within its pixel's radius
+//!    (a range search from each point, `photon::ranges`);
 //! 3. shrinks each pixel's radius as photons arrive: with `N` photons so far
 //!    and `M` new ones, `N' = N + alpha M`, `R' = R sqrt(N' / (N + M))`, and
 //!    the gathered flux is scaled by `(R' / R)^2`.
@@ -45,9 +47,9 @@ use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
 use crate::photon::nearest::{Nearest, PointTree};
 use crate::photon::ranges::RangeSearch;
-use crate::photon::{emit, Arrival, Photon};
+use crate::photon::{emit, Arrival, Photon, PhotonNumbers};
 use crate::query::{Interaction, RayCount};
-use crate::sampling::Rng;
+use crate::sampling::{Rng, SamplerKind};
 
 /// The progressive photon-mapping integrator.
 pub struct Sppm;
@@ -531,9 +533,15 @@ impl<'a> Progressive<'a> {
         // `emit` gives each photon its light's power over the photons
         // emitted; this makes that over a whole pass's count.
         let share = photons as f32 / config.photons.sppm.photons_per_pass as f32;
-        // A different photon stream every pass.
-        let stream_seed = (config.seed ^ 0x5_99A1)
-            .wrapping_add((self.passes as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        // Under the Sobol sampler each pass's photons go on from the last
+        // pass's in one low-discrepancy sequence, so all of them so far are
+        // stratified; independent photons take new streams every pass.
+        let pass_seed = match config.sampler {
+            SamplerKind::Sobol => config.seed ^ 0x5_99A1,
+            SamplerKind::Independent => (config.seed ^ 0x5_99A1)
+                .wrapping_add((self.passes as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)),
+        };
+        let numbers = PhotonNumbers::for_sampler(config.sampler, pass_seed, self.emitted);
         // Each photon where it lands, in the order emitted (a photon that
         // bounced off no diffuse or glossy surface before, `!indirect`, is
         // caustic light).
@@ -541,7 +549,7 @@ impl<'a> Progressive<'a> {
             &self.ctx.query,
             photons,
             config.photons.max_bounces,
-            stream_seed,
+            numbers,
             false,
             Vec::new,
             |arrived: &mut Vec<Photon>, arrival: &Arrival| {
@@ -615,7 +623,11 @@ fn density_positions(ctx: &Context) -> Vec<Vec3> {
         &ctx.query,
         config.photons.sppm.photons_per_pass,
         config.photons.max_bounces,
-        config.seed ^ 0x5_99A1,
+        // Its own numbers: under the Sobol sampler, not the passes' first.
+        match config.sampler {
+            SamplerKind::Sobol => PhotonNumbers::Sobol { seed: config.seed ^ 0xDE45_17E5, first: 0 },
+            SamplerKind::Independent => PhotonNumbers::Independent { seed: config.seed ^ 0x5_99A1 },
+        },
         false,
         Vec::new,
         |kept: &mut Vec<Vec3>, arrival: &Arrival| {
