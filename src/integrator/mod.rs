@@ -6,6 +6,7 @@
 //! number of threads.
 
 pub mod direct;
+mod emission;
 pub mod path;
 pub mod photon;
 pub mod pixels;
@@ -116,6 +117,17 @@ pub trait Integrator: Sync {
     /// Camera samples per pixel, as the summary line reports them.
     fn samples_per_pixel(&self, config: &RenderConfig) -> u32 {
         config.samples
+    }
+
+    /// How many camera samples each pixel's `emission` component averages
+    /// over, spread over the pixel, in a render of a fixed number of samples
+    /// (`None`: not so, or the lights it sees are not a camera path's alone,
+    /// as in VCM's weighted strategies). Where a light's edge shows, those
+    /// pixels take more samples of the lights alone (`emission`).
+    /// By default, those whose pixels sample alone, when they take more than
+    /// one sample (one alone goes through the pixel's centre).
+    fn emission_samples(&self, config: &RenderConfig) -> Option<u32> {
+        (self.pixels_sample_alone() && config.samples > 1).then_some(config.samples)
     }
 
     /// Whether more camera samples refine its image, so that a time budget
@@ -249,6 +261,15 @@ pub fn render_with_maps(
     };
     if rendered.stats.samples_per_pixel == 0 {
         rendered.stats.samples_per_pixel = integrator.samples_per_pixel(config);
+    }
+    // A time budget's rounds already send samples where the pixels around
+    // are noisy.
+    if let (None, Some(samples)) = (config.time, integrator.emission_samples(config)) {
+        let mut rays = RayCount::default();
+        if let Some(note) = emission::refine(&ctx, &mut rendered.film, samples, &mut rays) {
+            rendered.stats.notes.push(note);
+        }
+        rendered.stats.rays += rays;
     }
     rendered.stats.elapsed = start.elapsed();
     check_finite(&rendered.film, config)?;

@@ -63,6 +63,11 @@ impl Integrator for Sppm {
         config.photons.sppm.passes
     }
 
+    /// Every camera path adds the lights it sees, jittered over the pixel.
+    fn emission_samples(&self, config: &RenderConfig) -> Option<u32> {
+        Some(config.photons.sppm.passes * CAMERA_PATHS_PER_PASS)
+    }
+
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {
         let start = Instant::now();
         let mut run = Progressive::new(ctx);
