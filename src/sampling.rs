@@ -27,6 +27,15 @@ impl SamplerKind {
     pub const NAMES: [(&'static str, SamplerKind); 2] =
         [("independent", SamplerKind::Independent), ("sobol", SamplerKind::Sobol)];
 
+    /// Its name in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        Self::NAMES
+            .iter()
+            .find(|(_, kind)| *kind == self)
+            .map(|(name, _)| *name)
+            .expect("every sampler is named")
+    }
+
     /// The stream of its own that sample `index` of `stream` (a pixel)
     /// draws from under `seed`, if this sampler gives each sample one
     /// (Sobol: [`Rng::sobol`]); `None` when the samples share the pixel's

@@ -34,11 +34,6 @@ use crate::error::{Error, Result};
 use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
-/// A sampler's name as `--sampler` takes it.
-fn sampler_name(sampler: SamplerKind) -> &'static str {
-    SamplerKind::NAMES.iter().find(|(_, kind)| *kind == sampler).map_or("?", |(name, _)| name)
-}
-
 const MAGIC: &[u8; 4] = b"CXPM";
 const VERSION: u32 = 3;
 
@@ -82,7 +77,7 @@ impl MapSettings {
             }
         };
         differ("--seed", self.seed.to_string(), asked.seed.to_string());
-        differ("--sampler", sampler_name(self.sampler).into(), sampler_name(asked.sampler).into());
+        differ("--sampler", self.sampler.name().into(), asked.sampler.name().into());
         differ("--photons", self.global_photons.to_string(), asked.global_photons.to_string());
         differ("--caustic-photons", self.caustic_photons.to_string(), asked.caustic_photons.to_string());
         differ("max_bounces", self.max_bounces.to_string(), asked.max_bounces.to_string());
