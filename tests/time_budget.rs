@@ -17,14 +17,15 @@ fn cornell() -> Scene {
     Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml")).unwrap()
 }
 
-/// An 8 x 8 render of `scene` by `integrator` to a budget of 0.3 s.
 /// A pixel's light but what it sees of the lights directly or through
-/// mirrors and glass: a plain render of a fixed number of samples refines
-/// that where a light's edge shows (`tests/lights_seen.rs`), rounds do not.
+/// mirrors and glass: where a light's edge shows, a render takes samples
+/// of that of their own after its camera samples (`tests/lights_seen.rs`),
+/// which a render of a single pixel does not see.
 fn unrefined(pixel: &caustix::film::Sample) -> glam::Vec3 {
     pixel.total() - pixel.emission
 }
 
+/// An 8 x 8 render of `scene` by `integrator` to a budget of 0.3 s.
 fn eight_by_eight(scene: &Scene, integrator: IntegratorKind) -> RenderConfig {
     RenderConfig { integrator, width: 8, height: 8, time: Some(0.3), ..scene.config.clone() }
 }
@@ -261,6 +262,15 @@ fn sppm_runs_passes_until_the_budget() {
     let rendered = caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap();
     let passes = rendered.stats.samples_per_pixel;
     assert!(passes >= 1);
+    // Each pixel's camera paths: two a pass on average, more where the
+    // pixels around are noisier.
+    let paths = rendered.stats.pixel_samples.as_ref().expect("each pixel's count");
+    let total: u32 = paths.iter().sum();
+    assert!(paths.iter().all(|&n| n >= passes), "{paths:?}");
+    assert!(
+        total as f64 <= 2.0 * passes as f64 * paths.len() as f64 + 0.5,
+        "{total} paths in {passes} passes"
+    );
     assert!(
         rendered.stats.notes.iter().any(|l| l.contains(&format!("{passes} passes"))),
         "{:?}",

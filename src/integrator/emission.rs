@@ -9,15 +9,23 @@
 //! path) where what the light needs is cheap: one ray, and one more at each
 //! mirror or glass surface on the way.
 //!
-//! So after a render of a fixed number of samples a pixel, the pixels whose
-//! neighbourhood shows an edge of a light take [`EXTRA_PER_SAMPLE`] times
-//! as many samples of the emission component alone, averaged with the
-//! render's own. Which pixels, a first look decides: [`FIRST_LOOK`] samples
-//! a pixel, of random numbers of their own and not counted in the image (so
-//! the choice does not bias it), and a pixel is refined when what those
-//! samples found over its 3 x 3 neighbourhood is not all the same. The
-//! first look covers a region of the image and one pixel around it, so a
-//! tile of the image chooses as the whole image does.
+//! So after a render, the pixels whose neighbourhood shows an edge of a
+//! light take [`EXTRA_PER_SAMPLE`] times as many samples of the emission
+//! component alone as the render took a pixel (on average), averaged with
+//! each pixel's own by count. Which pixels, a first look decides:
+//! [`FIRST_LOOK`] samples a pixel, of random numbers of their own and not
+//! counted in the image (so the choice does not bias it), and a pixel is
+//! refined when what those samples found over its 3 x 3 neighbourhood is
+//! not all the same. The first look covers a region of the image and one
+//! pixel around it, so a tile of the image chooses as the whole image does.
+//!
+//! A render to a time budget looks first and leaves the refinement its
+//! time, as the first look measured it ([`LightEdges::seconds_after`]): its
+//! rounds already send more camera samples where the pixels around are
+//! noisy, but at a few seconds the lights' edges were still most of SPPM's
+//! fireflies and a tenth of its error (BENCHMARKS.md, issue 16).
+
+use std::time::Instant;
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -49,70 +57,168 @@ const MAX_EXTRA: u32 = 16_384;
 const FIRST_LOOK_STREAM: u64 = 5 << 48;
 const EXTRA_STREAM: u64 = 6 << 48;
 
+/// The pixels of a region where a light's edge shows, found by a first
+/// look, and what their emission samples cost.
+pub struct LightEdges {
+    /// The region the first look covered (one pixel around it aside).
+    region: Region,
+    /// Indices into `region`'s pixels, in order.
+    pixels: Vec<usize>,
+    /// Rays the first look traced.
+    look_rays: RayCount,
+    /// Wall-clock seconds an emission sample of these pixels takes (their
+    /// rays per sample in the first look, at the first look's time per ray).
+    seconds_per_sample: f64,
+    /// Wall-clock seconds the first look took.
+    look_seconds: f64,
+}
+
+impl LightEdges {
+    /// Looks at the config's region for pixels whose neighbourhood shows a
+    /// light's edge: `None` where the scene has no area light to see.
+    pub fn find(ctx: &Context) -> Option<LightEdges> {
+        let config = ctx.config;
+        // Point and spot lights are not seen.
+        if !ctx.scene().lights.iter().any(|light| matches!(light, Light::Area { .. })) {
+            return None;
+        }
+        let start = Instant::now();
+        let region = config.region();
+        // The first look: the region and a pixel around it, within the image.
+        let around = Region {
+            x0: region.x0.saturating_sub(1),
+            y0: region.y0.saturating_sub(1),
+            x1: (region.x1 + 1).min(config.width),
+            y1: (region.y1 + 1).min(config.height),
+        };
+        let (looked, counts): (Vec<(f32, f32)>, Vec<RayCount>) = (0..around.pixels() as usize)
+            .into_par_iter()
+            .map(|i| {
+                let mut count = RayCount::default();
+                let (x, y) = around.pixel(i);
+                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                for s in 0..FIRST_LOOK {
+                    let e = sample(ctx, (x, y), FIRST_LOOK_STREAM, s, &mut count).element_sum();
+                    (lo, hi) = (lo.min(e), hi.max(e));
+                }
+                ((lo, hi), count)
+            })
+            .unzip();
+        let width = around.width() as usize;
+        let at = |x: u32, y: u32| (y - around.y0) as usize * width + (x - around.x0) as usize;
+        let differs = |x: u32, y: u32| {
+            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+            for ny in y.saturating_sub(1).max(around.y0)..(y + 2).min(around.y1) {
+                for nx in x.saturating_sub(1).max(around.x0)..(x + 2).min(around.x1) {
+                    let (l, h) = looked[at(nx, ny)];
+                    (lo, hi) = (lo.min(l), hi.max(h));
+                }
+            }
+            hi > lo
+        };
+        let pixels: Vec<usize> = (0..region.pixels() as usize)
+            .filter(|&i| {
+                let (x, y) = region.pixel(i);
+                differs(x, y)
+            })
+            .collect();
+        let rays = |c: &RayCount| (c.closest + c.shadow) as f64;
+        let mut look_rays = RayCount::default();
+        for &c in &counts {
+            look_rays += c;
+        }
+        let look_seconds = start.elapsed().as_secs_f64();
+        let seconds_per_ray = look_seconds / rays(&look_rays).max(1.0);
+        let edge_rays: f64 = pixels
+            .iter()
+            .map(|&i| {
+                let (x, y) = region.pixel(i);
+                rays(&counts[at(x, y)])
+            })
+            .sum();
+        let rays_per_sample = edge_rays / (pixels.len().max(1) as f64 * FIRST_LOOK as f64);
+        let seconds_per_sample = seconds_per_ray * rays_per_sample;
+        Some(LightEdges { region, pixels, look_rays, seconds_per_sample, look_seconds })
+    }
+
+    /// The emission samples each of these pixels takes after a render of
+    /// `samples` camera samples a pixel (on average).
+    pub fn extra_for(samples: f64) -> u32 {
+        (samples * EXTRA_PER_SAMPLE as f64).clamp(MIN_EXTRA as f64, MAX_EXTRA as f64) as u32
+    }
+
+    /// The wall-clock seconds [`LightEdges::refine`] should take after a
+    /// render of `samples` camera samples a pixel (on average): what a
+    /// render to a time budget leaves for it.
+    pub fn seconds_after(&self, samples: f64) -> f64 {
+        self.pixels.len() as f64 * Self::extra_for(samples) as f64 * self.seconds_per_sample
+    }
+
+    /// The wall-clock seconds the first look took.
+    pub fn look_seconds(&self) -> f64 {
+        self.look_seconds
+    }
+
+    /// The most emission samples a pixel that fit in `seconds`.
+    pub fn extra_within(&self, seconds: f64) -> u32 {
+        let each = self.pixels.len() as f64 * self.seconds_per_sample;
+        (seconds / each.max(1e-12)).clamp(0.0, MAX_EXTRA as f64) as u32
+    }
+
+    /// Gives each pixel of `film` (the region's) where an edge shows
+    /// `extra` samples of the emission component alone, averaged with the
+    /// render's own by count: pixel `i` of the region took `samples(i)`
+    /// camera samples spread over the pixel. Returns the note for the
+    /// stats, or `None` when no pixel needed it. Rays traced, the first
+    /// look's among them, are added to `rays`.
+    pub fn refine(
+        &self,
+        ctx: &Context,
+        film: &mut Film,
+        samples: &(dyn Fn(usize) -> u32 + Sync),
+        extra: u32,
+        rays: &mut RayCount,
+    ) -> Option<String> {
+        *rays += self.look_rays;
+        if self.pixels.is_empty() || extra == 0 {
+            return None;
+        }
+        let region = self.region;
+        let refined: Vec<RayCount> = self
+            .pixels
+            .par_iter()
+            .map(|&i| {
+                let (x, y) = region.pixel(i);
+                let mut count = RayCount::default();
+                let sum: Vec3 = (0..extra).map(|s| sample(ctx, (x, y), EXTRA_STREAM, s, &mut count)).sum();
+                (i, sum, count)
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .map(|(i, sum, count)| {
+                let pixel = &mut film.pixels[i];
+                let n = samples(i);
+                pixel.emission = (pixel.emission * n as f32 + sum) / (n + extra) as f32;
+                count
+            })
+            .collect();
+        for c in &refined {
+            *rays += *c;
+        }
+        Some(format!(
+            "lights' edges: {} pixels took {extra} more samples of the lights they see",
+            refined.len()
+        ))
+    }
+}
+
 /// Refines the emission of the pixels of `film` (the config's region, each
 /// the mean of `samples` camera samples spread over the pixel) where a
 /// light's edge shows. Returns the note for the stats, or `None` when no
 /// pixel needed it. Rays traced are added to `rays`.
 pub(super) fn refine(ctx: &Context, film: &mut Film, samples: u32, rays: &mut RayCount) -> Option<String> {
-    let config = ctx.config;
-    // Point and spot lights are not seen.
-    if !ctx.scene().lights.iter().any(|light| matches!(light, Light::Area { .. })) {
-        return None;
-    }
-    let region = config.region();
-    // The first look: the region and a pixel around it, within the image.
-    let around = Region {
-        x0: region.x0.saturating_sub(1),
-        y0: region.y0.saturating_sub(1),
-        x1: (region.x1 + 1).min(config.width),
-        y1: (region.y1 + 1).min(config.height),
-    };
-    let (looked, counts): (Vec<(f32, f32)>, Vec<RayCount>) = (0..around.pixels() as usize)
-        .into_par_iter()
-        .map(|i| {
-            let mut count = RayCount::default();
-            let (x, y) = around.pixel(i);
-            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-            for s in 0..FIRST_LOOK {
-                let e = sample(ctx, (x, y), FIRST_LOOK_STREAM, s, &mut count).element_sum();
-                (lo, hi) = (lo.min(e), hi.max(e));
-            }
-            ((lo, hi), count)
-        })
-        .unzip();
-    let width = around.width() as usize;
-    let differs = |x: u32, y: u32| {
-        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-        for ny in y.saturating_sub(1).max(around.y0)..(y + 2).min(around.y1) {
-            for nx in x.saturating_sub(1).max(around.x0)..(x + 2).min(around.x1) {
-                let (l, h) = looked[(ny - around.y0) as usize * width + (nx - around.x0) as usize];
-                (lo, hi) = (lo.min(l), hi.max(h));
-            }
-        }
-        hi > lo
-    };
-    let extra = (samples.saturating_mul(EXTRA_PER_SAMPLE)).clamp(MIN_EXTRA, MAX_EXTRA);
-    let refined: Vec<RayCount> = film
-        .pixels
-        .par_iter_mut()
-        .enumerate()
-        .filter_map(|(i, pixel)| {
-            let (x, y) = region.pixel(i);
-            if !differs(x, y) {
-                return None;
-            }
-            let mut count = RayCount::default();
-            let sum: Vec3 = (0..extra).map(|s| sample(ctx, (x, y), EXTRA_STREAM, s, &mut count)).sum();
-            pixel.emission = (pixel.emission * samples as f32 + sum) / (samples + extra) as f32;
-            Some(count)
-        })
-        .collect();
-    for c in counts.into_iter().chain(refined.iter().copied()) {
-        *rays += c;
-    }
-    (!refined.is_empty()).then(|| {
-        format!("lights' edges: {} pixels took {extra} more samples of the lights they see", refined.len())
-    })
+    let edges = LightEdges::find(ctx)?;
+    edges.refine(ctx, film, &|_| samples, LightEdges::extra_for(samples as f64), rays)
 }
 
 /// One sample of the light seen through pixel `(x, y)`: sample `index` of

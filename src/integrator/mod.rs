@@ -25,6 +25,7 @@ use crate::film::Film;
 use crate::photon::PhotonMaps;
 use crate::query::{RayCount, SceneQuery};
 use crate::scene::Scene;
+use emission::LightEdges;
 
 /// Called as work gets done, with the units just finished (see
 /// [`Integrator::work_units`]); the command line drives its progress bar with it.
@@ -56,6 +57,10 @@ pub struct Context<'a> {
     pub pixel_samples: Option<&'a [SampleRange]>,
     /// Where the images so far of a render to a time budget go, if anywhere.
     pub snapshot: Option<&'a Snapshot<'a>>,
+    /// Under a time budget, the pixels where a light's edge shows: after
+    /// the render they take samples of the lights alone, and the render
+    /// leaves them the time ([`LightEdges::seconds_after`]).
+    pub(crate) light_edges: Option<&'a LightEdges>,
 }
 
 /// Camera samples `first .. first + count` of every pixel (by index: each
@@ -80,6 +85,7 @@ impl<'a> Context<'a> {
             samples: SampleRange { first: 0, count: config.samples },
             pixel_samples: None,
             snapshot: None,
+            light_edges: None,
         }
     }
 
@@ -114,20 +120,28 @@ pub trait Integrator: Sync {
         config.pixels()
     }
 
+    /// Whether each pixel's `emission` component is the mean of its own
+    /// camera samples, spread over the pixel, in any render (the count of a
+    /// render to a time budget in [`RenderStats::pixel_samples`]). Where a
+    /// light's edge shows, those pixels then take more samples of the
+    /// lights alone (`emission`). Not so where light paths add to any pixel
+    /// (VCM and its special cases: their lights seen are weighted among
+    /// strategies), nor for a single sample through the pixel's centre.
+    fn averages_lights_seen(&self) -> bool {
+        self.pixels_sample_alone()
+    }
+
     /// Camera samples per pixel, as the summary line reports them.
     fn samples_per_pixel(&self, config: &RenderConfig) -> u32 {
         config.samples
     }
 
     /// How many camera samples each pixel's `emission` component averages
-    /// over, spread over the pixel, in a render of a fixed number of samples
-    /// (`None`: not so, or the lights it sees are not a camera path's alone,
-    /// as in VCM's weighted strategies). Where a light's edge shows, those
-    /// pixels take more samples of the lights alone (`emission`).
-    /// By default, those whose pixels sample alone, when they take more than
-    /// one sample (one alone goes through the pixel's centre).
+    /// over in a render of a fixed number of samples, where
+    /// [`Integrator::averages_lights_seen`] (`None`: one, through the
+    /// pixel's centre).
     fn emission_samples(&self, config: &RenderConfig) -> Option<u32> {
-        (self.pixels_sample_alone() && config.samples > 1).then_some(config.samples)
+        (config.samples > 1).then_some(config.samples)
     }
 
     /// Whether more camera samples refine its image, so that a time budget
@@ -249,6 +263,14 @@ pub fn render_with_maps(
     let start = Instant::now();
     let integrator = create(config.integrator);
     let ctx = Context { photon_maps: maps, snapshot, ..Context::new(scene, accel, config) };
+    let refines_lights = integrator.averages_lights_seen();
+    // Under a time budget the first look comes first, so that the render
+    // leaves the refinement its time.
+    let edges = match config.time {
+        Some(_) if refines_lights => LightEdges::find(&ctx),
+        _ => None,
+    };
+    let ctx = Context { light_edges: edges.as_ref(), ..ctx };
     let mut rendered = match config.time {
         Some(seconds) if integrator.refines_by_samples() => rounds::render_to_time(
             integrator.as_ref(),
@@ -262,15 +284,22 @@ pub fn render_with_maps(
     if rendered.stats.samples_per_pixel == 0 {
         rendered.stats.samples_per_pixel = integrator.samples_per_pixel(config);
     }
-    // A time budget's rounds already send samples where the pixels around
-    // are noisy.
-    if let (None, Some(samples)) = (config.time, integrator.emission_samples(config)) {
-        let mut rays = RayCount::default();
-        if let Some(note) = emission::refine(&ctx, &mut rendered.film, samples, &mut rays) {
-            rendered.stats.notes.push(note);
-        }
-        rendered.stats.rays += rays;
-    }
+    let mut rays = RayCount::default();
+    let note = match (config.time, &rendered.stats.pixel_samples) {
+        (None, _) => match integrator.emission_samples(config).filter(|_| refines_lights) {
+            Some(samples) => emission::refine(&ctx, &mut rendered.film, samples, &mut rays),
+            None => None,
+        },
+        (Some(budget), Some(counts)) => edges.as_ref().and_then(|edges| {
+            let mean = counts.iter().map(|&n| n as f64).sum::<f64>() / counts.len().max(1) as f64;
+            let left = budget as f64 - start.elapsed().as_secs_f64();
+            let extra = LightEdges::extra_for(mean).min(edges.extra_within(left));
+            edges.refine(&ctx, &mut rendered.film, &|i| counts[i], extra, &mut rays)
+        }),
+        (Some(_), None) => None,
+    };
+    rendered.stats.notes.extend(note);
+    rendered.stats.rays += rays;
     rendered.stats.elapsed = start.elapsed();
     check_finite(&rendered.film, config)?;
     Ok(rendered)

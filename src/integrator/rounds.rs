@@ -243,8 +243,13 @@ pub(super) fn render_to_time(
             break;
         }
         let done = tally.total();
-        let left = budget.as_secs_f64() - start.elapsed().as_secs_f64();
-        let affordable = left / per_sample.max(1e-12);
+        // What the lights' edges will take after the render, at `samples`
+        // samples in all, and what each further sample adds to that.
+        let edges =
+            |samples: u64| ctx.light_edges.map_or(0.0, |e| e.seconds_after(samples as f64 / pixels as f64));
+        let edges_per_sample = (edges(done + pixels) - edges(done)) / pixels as f64;
+        let left = budget.as_secs_f64() - start.elapsed().as_secs_f64() - edges(done);
+        let affordable = left / (per_sample + edges_per_sample).max(1e-12);
         // As many again as taken so far, or what the time left affords;
         // a round too small to matter (under a sample for every 64 pixels)
         // is not worth its start.

@@ -64,6 +64,11 @@ impl Integrator for Sppm {
     }
 
     /// Every camera path adds the lights it sees, jittered over the pixel.
+    fn averages_lights_seen(&self) -> bool {
+        true
+    }
+
+    /// `CAMERA_PATHS_PER_PASS` camera paths a pass.
     fn emission_samples(&self, config: &RenderConfig) -> Option<u32> {
         Some(config.photons.sppm.passes * CAMERA_PATHS_PER_PASS)
     }
@@ -75,8 +80,15 @@ impl Integrator for Sppm {
             // Whole passes while one as long as the longest so far fits,
             // then a part of a pass in what is left.
             Some(budget) => {
+                // What the lights' edges took before the first pass (the
+                // budget counts from the render's start) and will take
+                // after `passes` passes.
+                let edges = |passes: u32| {
+                    let paths = (passes * CAMERA_PATHS_PER_PASS) as f64;
+                    ctx.light_edges.map_or(0.0, |e| e.look_seconds() + e.seconds_after(paths))
+                };
                 while run.passes() < crate::config::limits::MAX_PASSES {
-                    let left = budget as f64 - start.elapsed().as_secs_f64();
+                    let left = budget as f64 - start.elapsed().as_secs_f64() - edges(run.passes() + 1);
                     let fraction = if run.passes() == 0 { 1.0 } else { run.fraction_fitting(left) };
                     if fraction < MIN_PASS_FRACTION {
                         break;
@@ -109,6 +121,7 @@ impl Integrator for Sppm {
                 None => String::new(),
             };
             rendered.stats.notes.push(format!("time budget {budget:.1} s: {} passes{last}", run.passes()));
+            rendered.stats.pixel_samples = Some(run.pixels.iter().map(|s| s.paths).collect());
         }
         rendered
     }
