@@ -272,7 +272,10 @@ fn sppm_runs_passes_until_the_budget() {
         "{total} paths in {passes} passes"
     );
     assert!(
-        rendered.stats.notes.iter().any(|l| l.contains(&format!("{passes} passes"))),
+        rendered.stats.notes.iter().any(|l| l.contains(&match passes {
+            1 => "1 pass".to_string(),
+            n => format!("{n} passes"),
+        })),
         "{:?}",
         rendered.stats.notes
     );

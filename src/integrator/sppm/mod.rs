@@ -120,7 +120,11 @@ impl Integrator for Sppm {
                 }
                 None => String::new(),
             };
-            rendered.stats.notes.push(format!("time budget {budget:.1} s: {} passes{last}", run.passes()));
+            let passes = match run.passes() {
+                1 => "1 pass".to_string(),
+                n => format!("{n} passes"),
+            };
+            rendered.stats.notes.push(format!("time budget {budget:.1} s: {passes}{last}"));
             rendered.stats.pixel_samples = Some(run.pixels.iter().map(|s| s.paths).collect());
         }
         rendered
