@@ -305,6 +305,14 @@ pub fn render_with_maps(
     Ok(rendered)
 }
 
+/// `n` things for a note: "1 pass", "2 passes".
+pub(crate) fn counted(n: u64, one: &str, many: &str) -> String {
+    match n {
+        1 => format!("1 {one}"),
+        n => format!("{n} {many}"),
+    }
+}
+
 /// Checks, before any work, that `config` is valid ([`RenderConfig::validate`])
 /// and that a render of `scene` with it fits in the memory available.
 pub fn check(scene: &Scene, config: &RenderConfig) -> Result<()> {

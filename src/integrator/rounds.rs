@@ -278,12 +278,18 @@ pub(super) fn render_to_time(
     rendered.stats.rays = rays;
     rendered.stats.samples_per_pixel = mean.round() as u32;
     rendered.stats.notes.push(if least == most {
-        format!("time budget {:.1} s: {least} samples per pixel in {rounds} rounds", budget.as_secs_f64())
+        format!(
+            "time budget {:.1} s: {} per pixel in {}",
+            budget.as_secs_f64(),
+            super::counted(least.into(), "sample", "samples"),
+            super::counted(rounds.into(), "round", "rounds")
+        )
     } else {
         format!(
             "time budget {:.1} s: {mean:.1} samples per pixel on average ({least} to {most}, more where \
-             the pixels around are noisier) in {rounds} rounds",
-            budget.as_secs_f64()
+             the pixels around are noisier) in {}",
+            budget.as_secs_f64(),
+            super::counted(rounds.into(), "round", "rounds")
         )
     });
     rendered.stats.pixel_samples = Some(tally.count);

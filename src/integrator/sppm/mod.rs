@@ -120,10 +120,7 @@ impl Integrator for Sppm {
                 }
                 None => String::new(),
             };
-            let passes = match run.passes() {
-                1 => "1 pass".to_string(),
-                n => format!("{n} passes"),
-            };
+            let passes = super::counted(run.passes().into(), "pass", "passes");
             rendered.stats.notes.push(format!("time budget {budget:.1} s: {passes}{last}"));
             rendered.stats.pixel_samples = Some(run.pixels.iter().map(|s| s.paths).collect());
         }
