@@ -159,7 +159,8 @@ impl LightEdges {
         self.look_seconds
     }
 
-    /// The most emission samples a pixel that fit in `seconds`.
+    /// The most emission samples each of these pixels can take within
+    /// `seconds`.
     pub fn extra_within(&self, seconds: f64) -> u32 {
         let each = self.pixels.len() as f64 * self.seconds_per_sample;
         (seconds / each.max(1e-12)).clamp(0.0, MAX_EXTRA as f64) as u32

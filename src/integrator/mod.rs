@@ -204,8 +204,9 @@ pub struct RenderStats {
     /// Camera samples per pixel taken (passes for SPPM, one for the
     /// previews; on average, for a render to a time budget).
     pub samples_per_pixel: u32,
-    /// For a render to a time budget, the camera samples each pixel of the
-    /// region took, row by row (noisier pixels take more).
+    /// For a render to a time budget, the camera samples (SPPM: camera
+    /// paths) each pixel of the region took, row by row (noisier pixels
+    /// take more).
     pub pixel_samples: Option<Vec<u32>>,
 }
 
