@@ -15,8 +15,10 @@ pub fn available() -> Option<usize> {
 }
 
 /// Bytes per pixel while rendering: the per-tile samples and the film they
-/// are copied into (two `Sample`s), then the image and its encoding.
-const FILM_BYTES_PER_PIXEL: u64 = 2 * std::mem::size_of::<crate::film::Sample>() as u64 + 24;
+/// are copied into (two `Sample`s), then the image and its encoding (24 B);
+/// and the first look for the lights' edges (`integrator/emission.rs`: the
+/// least and most it saw and its rays, 24 B).
+const FILM_BYTES_PER_PIXEL: u64 = 2 * std::mem::size_of::<crate::film::Sample>() as u64 + 24 + 24;
 
 /// Extra bytes per pixel for progressive photon mapping: each pixel's state,
 /// its visible point and its places in the hash grid.
