@@ -314,6 +314,16 @@ pub(crate) fn counted(n: u64, one: &str, many: &str) -> String {
     }
 }
 
+/// A time budget for a note: tenths of a second, or every digit of one
+/// too short for them ("4.0", "0.05").
+pub(crate) fn budget_seconds(s: f32) -> String {
+    if s >= 0.1 {
+        format!("{s:.1}")
+    } else {
+        format!("{s}")
+    }
+}
+
 /// Checks, before any work, that `config` is valid ([`RenderConfig::validate`])
 /// and that a render of `scene` with it fits in the memory available.
 pub fn check(scene: &Scene, config: &RenderConfig) -> Result<()> {
@@ -372,4 +382,20 @@ pub fn work_units(config: &RenderConfig) -> u64 {
 /// progressive photon mapping, one for the previews), for summaries.
 pub fn samples_per_pixel(config: &RenderConfig) -> u32 {
     create(config.integrator).samples_per_pixel(config)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn notes_count_and_time_in_words_that_agree() {
+        assert_eq!(counted(1, "pass", "passes"), "1 pass");
+        assert_eq!(counted(0, "pass", "passes"), "0 passes");
+        assert_eq!(counted(36, "round", "rounds"), "36 rounds");
+        assert_eq!(budget_seconds(4.0), "4.0");
+        assert_eq!(budget_seconds(0.3), "0.3");
+        assert_eq!(budget_seconds(0.05), "0.05");
+        assert_eq!(budget_seconds(Duration::from_secs_f32(1e-6).as_secs_f32()), "0.000001");
+    }
 }

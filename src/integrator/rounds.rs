@@ -279,16 +279,16 @@ pub(super) fn render_to_time(
     rendered.stats.samples_per_pixel = mean.round() as u32;
     rendered.stats.notes.push(if least == most {
         format!(
-            "time budget {:.1} s: {} per pixel in {}",
-            budget.as_secs_f64(),
+            "time budget {} s: {} per pixel in {}",
+            super::budget_seconds(budget.as_secs_f32()),
             super::counted(least.into(), "sample", "samples"),
             super::counted(rounds.into(), "round", "rounds")
         )
     } else {
         format!(
-            "time budget {:.1} s: {mean:.1} samples per pixel on average ({least} to {most}, more where \
+            "time budget {} s: {mean:.1} samples per pixel on average ({least} to {most}, more where \
              the pixels around are noisier) in {}",
-            budget.as_secs_f64(),
+            super::budget_seconds(budget.as_secs_f32()),
             super::counted(rounds.into(), "round", "rounds")
         )
     });

@@ -121,7 +121,10 @@ impl Integrator for Sppm {
                 None => String::new(),
             };
             let passes = super::counted(run.passes().into(), "pass", "passes");
-            rendered.stats.notes.push(format!("time budget {budget:.1} s: {passes}{last}"));
+            rendered
+                .stats
+                .notes
+                .push(format!("time budget {} s: {passes}{last}", super::budget_seconds(budget)));
             rendered.stats.pixel_samples = Some(run.pixels.iter().map(|s| s.paths).collect());
         }
         rendered
