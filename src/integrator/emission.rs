@@ -176,7 +176,7 @@ impl LightEdges {
         &self,
         ctx: &Context,
         film: &mut Film,
-        samples: &(dyn Fn(usize) -> u32 + Sync),
+        samples: &dyn Fn(usize) -> u32,
         extra: u32,
         rays: &mut RayCount,
     ) -> Option<String> {
