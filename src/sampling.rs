@@ -261,7 +261,7 @@ impl Sobol4 {
         let i = scramble_reversed(index.reverse_bits(), self.index_seed);
         let [s0, s1, s2, s3] = self.seeds;
         let x0 = scramble_reversed(i, s0);
-        let x1 = scramble_reversed(sobol_reversed(&SOBOL_BYTES, i), s1);
+        let x1 = scramble_reversed(sobol_second_reversed(i), s1);
         let x2 = scramble_reversed(sobol_reversed(&SOBOL_BYTES_3RD, i), s2);
         let x3 = scramble_reversed(sobol_reversed(&SOBOL_BYTES_4TH, i), s3);
         (Vec2::new(fraction(x0), fraction(x1)), Vec2::new(fraction(x2), fraction(x3)))
