@@ -287,10 +287,10 @@ pub fn render_with_maps(
     }
     let mut rays = RayCount::default();
     let note = match (config.time, &rendered.stats.pixel_samples) {
-        (None, _) => match integrator.emission_samples(config).filter(|_| refines_lights) {
-            Some(samples) => emission::refine(&ctx, &mut rendered.film, samples, &mut rays),
-            None => None,
-        },
+        (None, _) => integrator
+            .emission_samples(config)
+            .filter(|_| refines_lights)
+            .and_then(|samples| emission::refine(&ctx, &mut rendered.film, samples, &mut rays)),
         (Some(budget), Some(counts)) => edges.as_ref().and_then(|edges| {
             let mean = counts.iter().map(|&n| n as f64).sum::<f64>() / counts.len().max(1) as f64;
             let left = budget as f64 - start.elapsed().as_secs_f64();
