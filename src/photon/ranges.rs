@@ -8,13 +8,15 @@
 //! its own radius. (Searching from the photons' side, in a grid over the
 //! points whose cells must be as wide as the largest radius, a photon
 //! tested about a hundred points to find ten, each a read scattered over
-//! the points: a quarter of an SPPM render, BENCHMARKS.md.)
+//! the points: a quarter of an SPPM render, BENCHMARKS.md.) Neighbouring
+//! pixels' visible points mostly find the same photons, so a group of them
+//! can be answered by one search around them all (`within_each`).
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::map::{index_of, morton_order};
-use super::runs::{unkey, Runs};
+use super::runs::{unkey, Near, Runs};
 
 /// Positions along a Morton curve, in runs searched by spheres
 /// (`runs.rs`), with each one's index in the order given.
@@ -44,6 +46,28 @@ impl RangeSearch {
         found.extend(keys.iter().map(|&key| self.given[unkey(key).1]));
         found.sort_unstable();
     }
+
+    /// What [`within`](RangeSearch::within) finds for each of `queries` (a
+    /// centre and a squared radius), into the `found` of the same index, by
+    /// one search around them all (see `Runs::within_each`): for queries
+    /// close together, such as neighbouring pixels' visible points.
+    pub fn within_each(&self, queries: &[(Vec3, f32)], buffers: &mut GroupBuffers, found: &mut [Vec<u32>]) {
+        buffers.keys.resize_with(queries.len(), Vec::new);
+        let keys = &mut buffers.keys[..queries.len()];
+        self.runs.within_each(queries, &mut buffers.near, keys);
+        for (keys, found) in keys.iter().zip(found.iter_mut()) {
+            found.clear();
+            found.extend(keys.iter().map(|&key| self.given[unkey(key).1]));
+            found.sort_unstable();
+        }
+    }
+}
+
+/// Buffers a thread's [`RangeSearch::within_each`] reuses.
+#[derive(Default)]
+pub struct GroupBuffers {
+    near: Near,
+    keys: Vec<Vec<u64>>,
 }
 
 #[cfg(test)]
@@ -66,17 +90,31 @@ mod tests {
                 .collect();
             let search = RangeSearch::new(&positions, |p| *p);
             let (mut keys, mut found) = (Vec::new(), Vec::new());
+            let mut buffers = GroupBuffers::default();
             for j in 0..40 {
                 let q = match positions.get(j * 7) {
                     Some(&p) if j % 2 == 0 => p,
                     _ => Vec3::new(rng.uniform(), rng.uniform() * 0.1, rng.uniform()),
                 };
-                for r2 in [0.0, 0.0004, 0.01, 0.1, f32::INFINITY] {
+                let radii = [0.0, 0.0004, 0.01, 0.1, f32::INFINITY];
+                for r2 in radii {
                     search.within(q, r2, &mut keys, &mut found);
                     let brute: Vec<u32> = (0..n as u32)
                         .filter(|&i| (positions[i as usize] - q).length_squared() <= r2)
                         .collect();
                     assert_eq!(found, brute, "{n} positions, r2 {r2}, at {q}");
+                }
+                // The same queries at once, moved a little apart.
+                let queries: Vec<(Vec3, f32)> = radii
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &r2)| (q + Vec3::splat(0.003 * k as f32), r2))
+                    .collect();
+                let mut all_found = vec![Vec::new(); queries.len()];
+                search.within_each(&queries, &mut buffers, &mut all_found);
+                for (&(q, r2), found_together) in queries.iter().zip(&all_found) {
+                    search.within(q, r2, &mut keys, &mut found);
+                    assert_eq!(found_together, &found, "{n} positions, r2 {r2}, at {q}, together");
                 }
             }
         }

@@ -1,7 +1,8 @@
 //! Range searches over photons already in Morton order, for the irradiance
 //! precomputation: "every photon within this sphere", about 200 of them,
 //! asked once per record (a quarter of a million times at 1M photons); and
-//! for SPPM's gathering (`ranges.rs`), about 10 each, once per pixel a pass.
+//! for SPPM's gathering (`ranges.rs`), about 10 each, once per pixel a pass
+//! (or once for a group of neighbouring pixels, [`Runs::within_each`]).
 //!
 //! The photons lie along a Morton curve (see `PhotonMap::new`), so every run
 //! of [`RUN`] consecutive photons is a compact patch of surface. The runs are
@@ -142,8 +143,64 @@ impl Runs {
     /// by distance, then by index (and compares integers, not floats).
     pub(super) fn within(&self, q: Vec3, r2: f32, found: &mut Vec<u64>) {
         if !self.runs.is_empty() {
-            self.visit(self.levels.len() - 1, 0, q, r2, found);
+            self.visit(self.levels.len() - 1, 0, q, r2, &mut |run| self.scan(run, q, r2, found));
         }
+    }
+
+    /// For each of `queries` (a centre and a squared radius), what
+    /// [`within`](Runs::within) finds, into the `found` of the same index
+    /// (cleared first), in no particular order: the same keys, by one
+    /// search of a sphere around them all, whose photons are then tested
+    /// against each query. For queries close together (neighbouring
+    /// pixels' visible points), that walks the tree and scans the runs
+    /// once instead of once each. `near` is a buffer the searches reuse.
+    pub(super) fn within_each(&self, queries: &[(Vec3, f32)], near: &mut Near, found: &mut [Vec<u64>]) {
+        for f in found.iter_mut() {
+            f.clear();
+        }
+        near.clear();
+        // Queries that reach nothing (a NaN radius) are left out of the sphere.
+        let reaching = || queries.iter().filter(|(_, r2)| *r2 >= 0.0);
+        let Some(bounds) = reaching().map(|&(q, _)| Bounds::EMPTY.grow(q)).reduce(Bounds::union) else {
+            return;
+        };
+        if self.runs.is_empty() {
+            return;
+        }
+        let centre = 0.5 * (bounds.min + bounds.max);
+        let reach = reaching().map(|&(q, r2)| (q - centre).length() + r2.sqrt()).fold(0.0f32, f32::max);
+        // Wider by far more than the rounding of any distance here (all of
+        // it relative), so that every photon a query finds lies within it.
+        let reach2 = (reach * (1.0 + 1e-4)).powi(2);
+        self.visit(self.levels.len() - 1, 0, centre, reach2, &mut |run| {
+            self.gather_near(run, centre, reach2, near)
+        });
+        for (&(q, r2), found) in queries.iter().zip(found.iter_mut()) {
+            near.within(q, r2, found);
+        }
+    }
+
+    /// The photons of run `index` within `r2` of `q`, into `near`
+    /// (without a branch per photon, as [`Runs::scan`]).
+    fn gather_near(&self, index: usize, q: Vec3, r2: f32, near: &mut Near) {
+        let run = &self.runs[index];
+        let base = index * RUN;
+        let mut d2 = [0.0f32; RUN];
+        for (i, d) in d2.iter_mut().enumerate() {
+            let (dx, dy, dz) = (run.x[i] - q.x, run.y[i] - q.y, run.z[i] - q.z);
+            *d = dx * dx + dy * dy + dz * dz;
+        }
+        let (mut x, mut y, mut z, mut at) = ([0.0f32; RUN], [0.0f32; RUN], [0.0f32; RUN], [0u32; RUN]);
+        let mut n = 0;
+        for (i, &d) in d2.iter().enumerate() {
+            let slot = n % RUN;
+            (x[slot], y[slot], z[slot], at[slot]) = (run.x[i], run.y[i], run.z[i], (base + i) as u32);
+            n += usize::from(d <= r2);
+        }
+        near.x.extend_from_slice(&x[..n]);
+        near.y.extend_from_slice(&y[..n]);
+        near.z.extend_from_slice(&z[..n]);
+        near.index.extend_from_slice(&at[..n]);
     }
 
     /// The positions within a sphere around `q` that holds its `k` nearest
@@ -185,14 +242,14 @@ impl Runs {
     /// of `q`, in their order (a NaN radius reaches nothing): the runs a
     /// search scans, and the order it pushes their photons, are those of
     /// any tree over the same runs' boxes.
-    fn visit(&self, level: usize, node: usize, q: Vec3, r2: f32, found: &mut Vec<u64>) {
+    fn visit(&self, level: usize, node: usize, q: Vec3, r2: f32, leaf: &mut impl FnMut(usize)) {
         let mut reaching = self.levels[level][node].reaching(q, r2);
         while reaching != 0 {
             let child = 4 * node + reaching.trailing_zeros() as usize;
             reaching &= reaching - 1;
             match level {
-                0 => self.scan(child, q, r2, found),
-                _ => self.visit(level - 1, child, q, r2, found),
+                0 => leaf(child),
+                _ => self.visit(level - 1, child, q, r2, leaf),
             }
         }
     }
@@ -218,6 +275,47 @@ impl Runs {
             n += usize::from(d <= r2);
         }
         found.extend_from_slice(&within[..n]);
+    }
+}
+
+/// The photons near a group of queries, coordinates axis by axis, with
+/// their places along the curve: what [`Runs::within_each`] tests each
+/// query against.
+#[derive(Default)]
+pub(super) struct Near {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+    index: Vec<u32>,
+}
+
+impl Near {
+    fn clear(&mut self) {
+        self.x.clear();
+        self.y.clear();
+        self.z.clear();
+        self.index.clear();
+    }
+
+    /// Those within `r2` of `q`, as keys into `found`; each distance as
+    /// [`Runs::scan`] computes it, to the bit.
+    fn within(&self, q: Vec3, r2: f32, found: &mut Vec<u64>) {
+        for start in (0..self.x.len()).step_by(RUN) {
+            let end = (start + RUN).min(self.x.len());
+            let (x, y, z) = (&self.x[start..end], &self.y[start..end], &self.z[start..end]);
+            let mut d2 = [0.0f32; RUN];
+            for (i, d) in d2[..end - start].iter_mut().enumerate() {
+                let (dx, dy, dz) = (x[i] - q.x, y[i] - q.y, z[i] - q.z);
+                *d = dx * dx + dy * dy + dz * dz;
+            }
+            let mut keys = [0u64; RUN];
+            let mut n = 0;
+            for (&d, &index) in d2.iter().zip(&self.index[start..end]) {
+                keys[n % RUN] = key(d, index as usize);
+                n += usize::from(d <= r2);
+            }
+            found.extend_from_slice(&keys[..n]);
+        }
     }
 }
 
@@ -250,6 +348,50 @@ pub(super) fn unkey(key: u64) -> (f32, usize) {
 mod tests {
     use super::*;
     use crate::sampling::Rng;
+
+    #[test]
+    fn a_search_for_many_queries_finds_what_each_finds_alone() {
+        // Groups of queries close together and far apart, with radii of
+        // none, small, large, infinite and NaN, over points on a plane and
+        // in a volume, and over none.
+        let mut rng = Rng::new(31, 32);
+        let mut near = Near::default();
+        for n in [0, 1, 40, 3000] {
+            let points: Vec<Vec3> = (0..n)
+                .map(|i| {
+                    let y = if i % 2 == 0 { 0.0 } else { rng.uniform() * 0.1 };
+                    Vec3::new(rng.uniform(), y, rng.uniform())
+                })
+                .collect();
+            let runs = Runs::new(&points, |p| *p);
+            // The radii of each group: an infinite one finds everything.
+            let groups: [&[f32]; 3] = [
+                &[0.0, 1e-4, 0.003, 0.05, 0.02],
+                &[0.003, f32::NAN, 0.004, 0.002],
+                &[1e-4, f32::INFINITY, 0.01],
+            ];
+            for (spread, radii) in [0.0, 0.01, 0.2, 2.0].into_iter().flat_map(|s| groups.map(|g| (s, g))) {
+                let middle = Vec3::new(rng.uniform(), 0.0, rng.uniform());
+                let queries: Vec<(Vec3, f32)> = radii
+                    .iter()
+                    .map(|&r2| {
+                        let q =
+                            middle + spread * (Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5);
+                        (q, r2)
+                    })
+                    .collect();
+                let mut found = vec![Vec::new(); queries.len()];
+                runs.within_each(&queries, &mut near, &mut found);
+                for ((q, r2), mut keys) in queries.iter().zip(found) {
+                    let mut alone = Vec::new();
+                    runs.within(*q, *r2, &mut alone);
+                    alone.sort_unstable();
+                    keys.sort_unstable();
+                    assert_eq!(keys, alone, "{n} points, spread {spread}, r2 {r2}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn range_searches_find_exactly_the_points_within() {

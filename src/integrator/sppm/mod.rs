@@ -42,11 +42,12 @@ use rayon::prelude::*;
 use super::direct::{direct_light, LightSampling};
 use super::rounds::{deviation, luminance, split_by_noise, LAST_ROUND_SHARE};
 use super::{Context, Integrator, Progress, Rendered};
+use crate::bounds::Bounds;
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
 use crate::photon::nearest::{Nearest, PointTree};
-use crate::photon::ranges::RangeSearch;
+use crate::photon::ranges::{GroupBuffers, RangeSearch};
 use crate::photon::{emit, Arrival, Photon, PhotonNumbers};
 use crate::query::{Interaction, RayCount};
 use crate::sampling::{Rng, SamplerKind};
@@ -588,33 +589,132 @@ impl<'a> Progressive<'a> {
             arrived.extend(chunk);
         }
         let search = RangeSearch::new(&arrived, |photon| photon.position);
-        points
+        // The flux a visible point gathers from the photons `found` within
+        // its radius, in the order they were emitted.
+        let gathered = |vp: &VisiblePoint, found: &[u32]| {
+            let mut g = Gathered::default();
+            for &i in found {
+                let photon = &arrived[i as usize];
+                if !photon.lights_surface(vp.p, vp.n, vp.radius) {
+                    continue;
+                }
+                let f = scene.materials[vp.material].brdf(vp.n, photon.incoming, vp.wo);
+                let flux = vp.weight * f * photon.power * share;
+                if !photon.indirect {
+                    g.caustic += flux;
+                } else {
+                    g.global += flux;
+                }
+                g.count += 1;
+            }
+            g
+        };
+        // Searched a square of pixels at a time: neighbouring visible points
+        // mostly find the same photons, so one search around a square's
+        // points serves them all where they lie close together, and each
+        // finds exactly the photons its own search would (`SquareSearch`).
+        let width = self.ctx.config.region().width() as usize;
+        let height = points.len() / width.max(1);
+        let squares: Vec<(usize, usize)> = (0..height)
+            .step_by(GATHER_TILE)
+            .flat_map(|y| (0..width).step_by(GATHER_TILE).map(move |x| (x, y)))
+            .collect();
+        let by_square: Vec<Vec<(usize, Gathered)>> = squares
             .par_iter()
-            .map_init(
-                || (Vec::new(), Vec::new()),
-                |(keys, found), vp| {
-                    let mut g = Gathered::default();
-                    let Some(vp) = vp else { return g };
-                    search.within(vp.p, vp.radius * vp.radius, keys, found);
-                    for &i in found.iter() {
-                        let photon = &arrived[i as usize];
-                        if !photon.lights_surface(vp.p, vp.n, vp.radius) {
-                            continue;
-                        }
-                        let f = scene.materials[vp.material].brdf(vp.n, photon.incoming, vp.wo);
-                        let flux = vp.weight * f * photon.power * share;
-                        if !photon.indirect {
-                            g.caustic += flux;
-                        } else {
-                            g.global += flux;
-                        }
-                        g.count += 1;
-                    }
-                    g
-                },
-            )
-            .collect()
+            .map_init(SquareSearch::default, |square_search, &corner| {
+                let mut here = Vec::new();
+                square_search.search(&search, points, width, corner, |i, vp, found| {
+                    here.push((i, gathered(vp, found)))
+                });
+                here
+            })
+            .collect();
+        let mut all = vec![Gathered::default(); points.len()];
+        for (i, g) in by_square.into_iter().flatten() {
+            all[i] = g;
+        }
+        all
     }
+}
+
+/// What a thread's searches of squares of pixels reuse.
+#[derive(Default)]
+struct SquareSearch {
+    buffers: GroupBuffers,
+    /// The photons each visible point of a square finds.
+    found: Vec<Vec<u32>>,
+    keys: Vec<u64>,
+    /// The square's pixels with a visible point.
+    members: Vec<usize>,
+    /// Their visible points' centres and squared radii.
+    queries: Vec<(Vec3, f32)>,
+}
+
+impl SquareSearch {
+    /// The photons within each visible point's radius, in the square of
+    /// [`GATHER_TILE`] pixels whose top left is `corner` (of a region
+    /// `width` wide): `visit(pixel, point, found)` for each. Points that
+    /// lie [`close_together`] are searched at once; a square whose points
+    /// do not is split in four, down to single pixels.
+    fn search(
+        &mut self,
+        search: &RangeSearch,
+        points: &[Option<VisiblePoint>],
+        width: usize,
+        corner: (usize, usize),
+        mut visit: impl FnMut(usize, &VisiblePoint, &[u32]),
+    ) {
+        let height = points.len() / width.max(1);
+        self.found.resize_with(GATHER_TILE * GATHER_TILE, Vec::new);
+        let mut squares = vec![(corner, GATHER_TILE)];
+        while let Some(((x0, y0), side)) = squares.pop() {
+            self.members.clear();
+            self.members.extend(
+                (y0..(y0 + side).min(height))
+                    .flat_map(|y| (x0..(x0 + side).min(width)).map(move |x| y * width + x))
+                    .filter(|&i| points[i].is_some()),
+            );
+            self.queries.clear();
+            self.queries.extend(
+                self.members.iter().flat_map(|&i| &points[i]).map(|vp| (vp.p, vp.radius * vp.radius)),
+            );
+            if close_together(&self.queries) {
+                search.within_each(&self.queries, &mut self.buffers, &mut self.found);
+            } else if side > 1 {
+                let half = side / 2;
+                let quarters = [(x0, y0), (x0 + half, y0), (x0, y0 + half), (x0 + half, y0 + half)];
+                squares.extend(quarters.map(|corner| (corner, half)));
+                continue;
+            } else {
+                for (&(q, r2), found) in self.queries.iter().zip(self.found.iter_mut()) {
+                    search.within(q, r2, &mut self.keys, found);
+                }
+            }
+            for (&i, found) in self.members.iter().zip(&self.found) {
+                if let Some(vp) = &points[i] {
+                    visit(i, vp, found);
+                }
+            }
+        }
+    }
+}
+
+/// The side of the largest square of pixels whose visible points SPPM
+/// searches together (a power of two).
+const GATHER_TILE: usize = 4;
+
+/// Whether range searches around `queries` (centres and squared radii) are
+/// worth one search around them all: whether their centres lie within the
+/// largest radius of the middle of their box, so that the sphere around
+/// them all is at most twice as wide as the widest (not so where a tile
+/// spans an edge between near and far surfaces).
+fn close_together(queries: &[(Vec3, f32)]) -> bool {
+    let Some(bounds) = queries.iter().map(|&(q, _)| Bounds::EMPTY.grow(q)).reduce(Bounds::union) else {
+        return false;
+    };
+    let centre = 0.5 * (bounds.min + bounds.max);
+    let widest = queries.iter().map(|&(_, r2)| r2).fold(0.0f32, f32::max);
+    queries.len() > 1 && queries.iter().all(|&(q, _)| (q - centre).length_squared() <= 4.0 * widest)
 }
 
 /// How many camera paths beyond the first each pixel (of a region `width`
@@ -835,6 +935,16 @@ mod tests {
         // Nothing known yet (a first pass): three each.
         let fresh = vec![state(0, 0.0, 0.0); 5];
         assert!(extra_paths(&fresh, 5, 1, 0, 15).iter().all(|&n| n == 3));
+    }
+
+    #[test]
+    fn visible_points_are_searched_together_only_when_close() {
+        let at = |x: f32, r: f32| (Vec3::new(x, 0.0, 0.0), r * r);
+        assert!(!close_together(&[]));
+        assert!(!close_together(&[at(0.0, 1.0)]), "one point is searched alone");
+        assert!(close_together(&[at(0.0, 0.5), at(1.0, 0.5)]), "within the widest radius of the middle");
+        assert!(close_together(&[at(0.0, 0.1), at(1.0, 0.25)]), "within twice the widest radius");
+        assert!(!close_together(&[at(0.0, 0.1), at(1.0, 0.2)]), "beyond twice the widest radius");
     }
 
     #[test]
