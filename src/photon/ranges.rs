@@ -52,7 +52,9 @@ impl RangeSearch {
     /// one search around them all (see `Runs::within_each`): for queries
     /// close together, such as neighbouring pixels' visible points.
     pub fn within_each(&self, queries: &[(Vec3, f32)], buffers: &mut GroupBuffers, found: &mut [Vec<u32>]) {
-        buffers.keys.resize_with(queries.len(), Vec::new);
+        if buffers.keys.len() < queries.len() {
+            buffers.keys.resize_with(queries.len(), Vec::new);
+        }
         let keys = &mut buffers.keys[..queries.len()];
         self.runs.within_each(queries, &mut buffers.near, keys);
         for (keys, found) in keys.iter().zip(found.iter_mut()) {

@@ -173,7 +173,7 @@ impl Runs {
         // it relative), so that every photon a query finds lies within it.
         let reach2 = (reach * (1.0 + 1e-4)).powi(2);
         self.visit(self.levels.len() - 1, 0, centre, reach2, &mut |run| {
-            self.gather_near(run, centre, reach2, near)
+            self.collect_near(run, centre, reach2, near)
         });
         for (&(q, r2), found) in queries.iter().zip(found.iter_mut()) {
             near.within(q, r2, found);
@@ -182,7 +182,7 @@ impl Runs {
 
     /// The photons of run `index` within `r2` of `q`, into `near`
     /// (without a branch per photon, as [`Runs::scan`]).
-    fn gather_near(&self, index: usize, q: Vec3, r2: f32, near: &mut Near) {
+    fn collect_near(&self, index: usize, q: Vec3, r2: f32, near: &mut Near) {
         let run = &self.runs[index];
         let base = index * RUN;
         let mut d2 = [0.0f32; RUN];
@@ -238,10 +238,10 @@ impl Runs {
         nearest_first(keys, k)
     }
 
-    /// Scans the runs below `node` of `level` whose boxes reach within `r2`
-    /// of `q`, in their order (a NaN radius reaches nothing): the runs a
-    /// search scans, and the order it pushes their photons, are those of
-    /// any tree over the same runs' boxes.
+    /// Hands `leaf` each run below `node` of `level` whose box reaches
+    /// within `r2` of `q`, in their order (a NaN radius reaches nothing):
+    /// the runs a search scans, and the order it pushes their photons, are
+    /// those of any tree over the same runs' boxes.
     fn visit(&self, level: usize, node: usize, q: Vec3, r2: f32, leaf: &mut impl FnMut(usize)) {
         let mut reaching = self.levels[level][node].reaching(q, r2);
         while reaching != 0 {

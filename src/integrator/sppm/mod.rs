@@ -704,10 +704,11 @@ impl SquareSearch {
 const GATHER_TILE: usize = 4;
 
 /// Whether range searches around `queries` (centres and squared radii) are
-/// worth one search around them all: whether their centres lie within the
-/// largest radius of the middle of their box, so that the sphere around
-/// them all is at most twice as wide as the widest (not so where a tile
-/// spans an edge between near and far surfaces).
+/// worth one search around them all: whether there are several, all within
+/// twice the largest radius of the middle of their box, so that the sphere
+/// around them all is at most three times as wide as the widest (not so
+/// where a square spans an edge between near and far surfaces, or where
+/// the radii are much smaller than the square).
 fn close_together(queries: &[(Vec3, f32)]) -> bool {
     let Some(bounds) = queries.iter().map(|&(q, _)| Bounds::EMPTY.grow(q)).reduce(Bounds::union) else {
         return false;
