@@ -16,7 +16,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::map::{index_of, morton_order};
-use super::runs::{unkey, Near, Runs};
+use super::runs::{middle, unkey, Near, Runs};
 
 /// Positions along a Morton curve, in runs searched by spheres
 /// (`runs.rs`), with each one's index in the order given.
@@ -65,6 +65,19 @@ impl RangeSearch {
     }
 }
 
+/// Whether range searches around `queries` (centres and squared radii) are
+/// worth one [`RangeSearch::within_each`] around them all: whether there
+/// are several, all within twice the largest radius of the middle of their
+/// box, so that the sphere around them all is at most three times as wide
+/// as the widest (not so where neighbouring pixels' points span an edge
+/// between near and far surfaces, or where the radii are much smaller than
+/// the distances between the points).
+pub fn close_together(queries: &[(Vec3, f32)]) -> bool {
+    let Some(centre) = middle(queries) else { return false };
+    let widest = queries.iter().map(|&(_, r2)| r2).fold(0.0f32, f32::max);
+    queries.len() > 1 && queries.iter().all(|&(q, _)| (q - centre).length_squared() <= 4.0 * widest)
+}
+
 /// Buffers a thread's [`RangeSearch::within_each`] reuses.
 #[derive(Default)]
 pub struct GroupBuffers {
@@ -76,6 +89,16 @@ pub struct GroupBuffers {
 mod tests {
     use super::*;
     use crate::sampling::Rng;
+
+    #[test]
+    fn queries_are_searched_together_only_when_close() {
+        let at = |x: f32, r: f32| (Vec3::new(x, 0.0, 0.0), r * r);
+        assert!(!close_together(&[]));
+        assert!(!close_together(&[at(0.0, 1.0)]), "one query is searched alone");
+        assert!(close_together(&[at(0.0, 0.5), at(1.0, 0.5)]), "within the widest radius of the middle");
+        assert!(close_together(&[at(0.0, 0.1), at(1.0, 0.25)]), "within twice the widest radius");
+        assert!(!close_together(&[at(0.0, 0.1), at(1.0, 0.2)]), "beyond twice the widest radius");
+    }
 
     #[test]
     fn finds_exactly_the_positions_within_in_the_order_given() {

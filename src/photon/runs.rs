@@ -33,6 +33,37 @@ struct Run {
     z: [f32; RUN],
 }
 
+impl Run {
+    /// Each photon's squared distance to `q` (NaN past the last).
+    fn distances2(&self, q: Vec3) -> [f32; RUN] {
+        distances2(&self.x, &self.y, &self.z, q)
+    }
+}
+
+/// The squared distances to `q` of a run's worth of points given axis by
+/// axis, in the order of glam's `length_squared`, so that every search
+/// here measures a photon's distance to the bit as the others do.
+fn distances2(x: &[f32; RUN], y: &[f32; RUN], z: &[f32; RUN], q: Vec3) -> [f32; RUN] {
+    let mut d2 = [0.0f32; RUN];
+    for (i, d) in d2.iter_mut().enumerate() {
+        let (dx, dy, dz) = (x[i] - q.x, y[i] - q.y, z[i] - q.z);
+        *d = dx * dx + dy * dy + dz * dz;
+    }
+    d2
+}
+
+/// The middle of the box around the points of `queries` whose squared
+/// radius is a number (`None` if none is): where a search for them all is
+/// centred ([`Runs::within_each`]), and what decides whether it is worth it.
+pub(super) fn middle(queries: &[(Vec3, f32)]) -> Option<Vec3> {
+    let bounds = queries
+        .iter()
+        .filter(|(_, r2)| *r2 >= 0.0)
+        .map(|&(q, _)| Bounds::EMPTY.grow(q))
+        .reduce(Bounds::union)?;
+    Some(0.5 * (bounds.min + bounds.max))
+}
+
 /// The tree over the runs, four children to a node: `levels[0]` holds the
 /// boxes of the runs four at a time (node `i` covers runs `4i..4i + 4`),
 /// each further level the boxes of the nodes below four at a time, up to
@@ -160,21 +191,19 @@ impl Runs {
         }
         near.clear();
         // Queries that reach nothing (a NaN radius) are left out of the sphere.
-        let reaching = || queries.iter().filter(|(_, r2)| *r2 >= 0.0);
-        let Some(bounds) = reaching().map(|&(q, _)| Bounds::EMPTY.grow(q)).reduce(Bounds::union) else {
-            return;
-        };
-        if self.runs.is_empty() {
-            return;
-        }
-        let centre = 0.5 * (bounds.min + bounds.max);
-        let reach = reaching().map(|&(q, r2)| (q - centre).length() + r2.sqrt()).fold(0.0f32, f32::max);
+        let Some(centre) = middle(queries).filter(|_| !self.runs.is_empty()) else { return };
+        let reach = queries
+            .iter()
+            .filter(|(_, r2)| *r2 >= 0.0)
+            .map(|&(q, r2)| (q - centre).length() + r2.sqrt())
+            .fold(0.0f32, f32::max);
         // Wider by far more than the rounding of any distance here (all of
         // it relative), so that every photon a query finds lies within it.
         let reach2 = (reach * (1.0 + 1e-4)).powi(2);
         self.visit(self.levels.len() - 1, 0, centre, reach2, &mut |run| {
             self.collect_near(run, centre, reach2, near)
         });
+        near.pad();
         for (&(q, r2), found) in queries.iter().zip(found.iter_mut()) {
             near.within(q, r2, found);
         }
@@ -185,11 +214,7 @@ impl Runs {
     fn collect_near(&self, index: usize, q: Vec3, r2: f32, near: &mut Near) {
         let run = &self.runs[index];
         let base = index * RUN;
-        let mut d2 = [0.0f32; RUN];
-        for (i, d) in d2.iter_mut().enumerate() {
-            let (dx, dy, dz) = (run.x[i] - q.x, run.y[i] - q.y, run.z[i] - q.z);
-            *d = dx * dx + dy * dy + dz * dz;
-        }
+        let d2 = run.distances2(q);
         let (mut x, mut y, mut z, mut at) = ([0.0f32; RUN], [0.0f32; RUN], [0.0f32; RUN], [0u32; RUN]);
         let mut n = 0;
         for (i, &d) in d2.iter().enumerate() {
@@ -256,13 +281,7 @@ impl Runs {
 
     /// The photons of run `index` within `r2` of `q`.
     fn scan(&self, index: usize, q: Vec3, r2: f32, found: &mut Vec<u64>) {
-        let run = &self.runs[index];
-        let mut d2 = [0.0f32; RUN];
-        for (i, d) in d2.iter_mut().enumerate() {
-            let (dx, dy, dz) = (run.x[i] - q.x, run.y[i] - q.y, run.z[i] - q.z);
-            // The order of glam's `length_squared`, so that distances agree bit for bit.
-            *d = dx * dx + dy * dy + dz * dz;
-        }
+        let d2 = self.runs[index].distances2(q);
         // Written without a branch per photon (whether one lies within is
         // as good as a coin toss near the sphere's edge): every photon is
         // written past the last one within, and that end moves past those
@@ -280,7 +299,7 @@ impl Runs {
 
 /// The photons near a group of queries, coordinates axis by axis, with
 /// their places along the curve: what [`Runs::within_each`] tests each
-/// query against.
+/// query against, a run's worth at a time (see [`Near::pad`]).
 #[derive(Default)]
 pub(super) struct Near {
     x: Vec<f32>,
@@ -297,20 +316,27 @@ impl Near {
         self.index.clear();
     }
 
-    /// Those within `r2` of `q`, as keys into `found`; each distance as
-    /// [`Runs::scan`] computes it, to the bit.
+    /// Fills the last run's worth with NaN coordinates, which no
+    /// comparison finds within any radius, as past a run's last photon.
+    fn pad(&mut self) {
+        let whole = self.x.len().next_multiple_of(RUN);
+        self.x.resize(whole, f32::NAN);
+        self.y.resize(whole, f32::NAN);
+        self.z.resize(whole, f32::NAN);
+        self.index.resize(whole, 0);
+    }
+
+    /// Those within `r2` of `q`, as keys into `found` (once padded); each
+    /// distance as [`Runs::scan`] computes it, to the bit.
     fn within(&self, q: Vec3, r2: f32, found: &mut Vec<u64>) {
-        for start in (0..self.x.len()).step_by(RUN) {
-            let end = (start + RUN).min(self.x.len());
-            let (x, y, z) = (&self.x[start..end], &self.y[start..end], &self.z[start..end]);
-            let mut d2 = [0.0f32; RUN];
-            for (i, d) in d2[..end - start].iter_mut().enumerate() {
-                let (dx, dy, dz) = (x[i] - q.x, y[i] - q.y, z[i] - q.z);
-                *d = dx * dx + dy * dy + dz * dz;
-            }
+        let (x, y, z) =
+            (self.x.as_chunks::<RUN>().0, self.y.as_chunks::<RUN>().0, self.z.as_chunks::<RUN>().0);
+        let chunks = x.iter().zip(y).zip(z).zip(self.index.as_chunks::<RUN>().0);
+        for (((x, y), z), index) in chunks {
+            let d2 = distances2(x, y, z, q);
             let mut keys = [0u64; RUN];
             let mut n = 0;
-            for (&d, &index) in d2.iter().zip(&self.index[start..end]) {
+            for (&d, &index) in d2.iter().zip(index) {
                 keys[n % RUN] = key(d, index as usize);
                 n += usize::from(d <= r2);
             }

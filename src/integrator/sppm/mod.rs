@@ -42,12 +42,11 @@ use rayon::prelude::*;
 use super::direct::{direct_light, LightSampling};
 use super::rounds::{deviation, luminance, split_by_noise, LAST_ROUND_SHARE};
 use super::{Context, Integrator, Progress, Rendered};
-use crate::bounds::Bounds;
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
 use crate::photon::nearest::{Nearest, PointTree};
-use crate::photon::ranges::{GroupBuffers, RangeSearch};
+use crate::photon::ranges::{close_together, GroupBuffers, RangeSearch};
 use crate::photon::{emit, Arrival, Photon, PhotonNumbers};
 use crate::query::{Interaction, RayCount};
 use crate::sampling::{Rng, SamplerKind};
@@ -703,21 +702,6 @@ impl SquareSearch {
 /// searches together (a power of two).
 const GATHER_TILE: usize = 4;
 
-/// Whether range searches around `queries` (centres and squared radii) are
-/// worth one search around them all: whether there are several, all within
-/// twice the largest radius of the middle of their box, so that the sphere
-/// around them all is at most three times as wide as the widest (not so
-/// where a square spans an edge between near and far surfaces, or where
-/// the radii are much smaller than the square).
-fn close_together(queries: &[(Vec3, f32)]) -> bool {
-    let Some(bounds) = queries.iter().map(|&(q, _)| Bounds::EMPTY.grow(q)).reduce(Bounds::union) else {
-        return false;
-    };
-    let centre = 0.5 * (bounds.min + bounds.max);
-    let widest = queries.iter().map(|&(_, r2)| r2).fold(0.0f32, f32::max);
-    queries.len() > 1 && queries.iter().all(|&(q, _)| (q - centre).length_squared() <= 4.0 * widest)
-}
-
 /// How many camera paths beyond the first each pixel (of a region `width`
 /// wide) takes in pass `pass`: `total` in all ([`CAMERA_PATHS_PER_PASS`] - 1
 /// a pixel on average in a whole pass), split by the deviation of what the
@@ -936,16 +920,6 @@ mod tests {
         // Nothing known yet (a first pass): three each.
         let fresh = vec![state(0, 0.0, 0.0); 5];
         assert!(extra_paths(&fresh, 5, 1, 0, 15).iter().all(|&n| n == 3));
-    }
-
-    #[test]
-    fn visible_points_are_searched_together_only_when_close() {
-        let at = |x: f32, r: f32| (Vec3::new(x, 0.0, 0.0), r * r);
-        assert!(!close_together(&[]));
-        assert!(!close_together(&[at(0.0, 1.0)]), "one point is searched alone");
-        assert!(close_together(&[at(0.0, 0.5), at(1.0, 0.5)]), "within the widest radius of the middle");
-        assert!(close_together(&[at(0.0, 0.1), at(1.0, 0.25)]), "within twice the widest radius");
-        assert!(!close_together(&[at(0.0, 0.1), at(1.0, 0.2)]), "beyond twice the widest radius");
     }
 
     #[test]
