@@ -42,7 +42,7 @@ pub struct EmissionPdfs {
 /// What an area light's shading asks of its shape at every ray and sample,
 /// worked out once when the light is made: its normal and area (in `f64`,
 /// exact at any size: two square roots and a division a call otherwise),
-/// its edges' squared lengths, and the radiance it leaves with. Made only
+/// its edges' dot products, and the radiance it leaves with. Made only
 /// by [`Light::area`], from the edges and power it is given; a light whose
 /// edges or power are changed in place keeps the old numbers, so make a
 /// new one with [`Light::area`] instead.
@@ -54,6 +54,8 @@ pub struct AreaFace {
     area: f64,
     /// `|u|^2` and `|v|^2`.
     length2: (f64, f64),
+    /// `u . v`: zero for a rectangle, else the edges' skew.
+    skew: f64,
     /// Radiance leaving the front: `power / (pi area)`.
     radiance: Vec3,
 }
@@ -71,7 +73,7 @@ pub enum Light {
     /// A one-sided emitting parallelogram, Lambertian (cosine) emission from
     /// the side `u x v` faces.
     Area {
-        /// Centre of the rectangle.
+        /// Centre of the parallelogram.
         center: Vec3,
         /// First full edge vector.
         u: Vec3,
@@ -106,6 +108,7 @@ impl Light {
             normal: numeric::unit_cross(u, v).unwrap_or(Vec3::ZERO),
             area,
             length2: (u.as_dvec3().length_squared(), v.as_dvec3().length_squared()),
+            skew: u.as_dvec3().dot(v.as_dvec3()),
             radiance: (power.as_dvec3() / (std::f64::consts::PI * area)).as_vec3(),
         };
         Light::Area { center, u, v, power, face }
@@ -171,12 +174,21 @@ impl Light {
         if !(t > 0.0 && t <= ray.t_max) {
             return None;
         }
-        // Where on the light, in units of its edges (in f64: tiny edges' squares underflow).
+        // Where on the light, in units of its edges (in f64: tiny edges'
+        // squares underflow): `local = a u + b v`. Edges at an angle other
+        // than a right one need the pair solved together; projecting on
+        // each edge alone would find another shape than the one sampled.
         let local = (ray.at(t) - center).as_dvec3();
-        let along = |e: Vec3, length2: f64| local.dot(e.as_dvec3()) / length2;
-        let (u_length2, v_length2) = face.length2;
+        let (lu, lv) = (local.dot(u.as_dvec3()), local.dot(v.as_dvec3()));
+        let ((uu, vv), uv) = (face.length2, face.skew);
+        let (a, b) = if uv == 0.0 {
+            (lu / uu, lv / vv)
+        } else {
+            let det = uu * vv - uv * uv;
+            ((vv * lu - uv * lv) / det, (uu * lv - uv * lu) / det)
+        };
         let side = if facing < 0.0 { Side::Front } else { Side::Back };
-        (along(u, u_length2).abs() <= 0.5 && along(v, v_length2).abs() <= 0.5).then_some((t, side))
+        (a.abs() <= 0.5 && b.abs() <= 0.5).then_some((t, side))
     }
 
     /// Emits one photon from the uniforms `u` (position on the light) and `v`
@@ -498,5 +510,32 @@ mod tests {
         assert!(light.crossing(&Ray::new(Vec3::new(0.6, 0.0, 0.0), Vec3::Y)).is_none(), "beside it");
         assert!(light.crossing(&Ray { t_max: 0.5, ..up }).is_none(), "beyond t_max");
         assert!(light.crossing(&Ray::new(Vec3::new(0.2, 2.0, 0.0), Vec3::X)).is_none(), "parallel");
+    }
+
+    /// A light with edges at 60 degrees is seen where it emits from: rays
+    /// to the points it samples cross it, and rays to points just outside
+    /// its edges do not, near the sharp corners too (projecting on each
+    /// edge alone once saw another, narrower shape there).
+    #[test]
+    fn rays_see_a_skewed_light_where_its_samples_lie() {
+        let (u, v) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.5, 0.0, 0.8));
+        let light = Light::area(Vec3::Y, u, v, Vec3::ONE);
+        let eye = Vec3::new(0.1, -1.0, 0.2);
+        let towards = |a: f32, b: f32| {
+            let p = Vec3::Y + a * u + b * v;
+            Ray { t_max: 2.0, ..Ray::new(eye, p - eye) }
+        };
+        let mut rng = Rng::new(5, 0);
+        for i in 0..1024 {
+            let s = light.sample_incident(eye, stratified(i, 1024, &mut rng)).unwrap();
+            let ray = Ray { t_max: 2.0, ..Ray::new(eye, s.position - eye) };
+            assert!(light.crossing(&ray).is_some(), "{:?}", s.position);
+        }
+        for (a, b) in [(0.48, 0.48), (-0.48, -0.48), (0.48, -0.3), (-0.1, 0.49)] {
+            assert!(light.crossing(&towards(a, b)).is_some(), "inside at ({a}, {b})");
+        }
+        for (a, b) in [(0.52, 0.48), (0.48, 0.52), (-0.52, -0.48), (-0.48, -0.52), (0.0, 0.51)] {
+            assert!(light.crossing(&towards(a, b)).is_none(), "outside at ({a}, {b})");
+        }
     }
 }
