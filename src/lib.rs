@@ -41,6 +41,7 @@ pub mod film;
 pub mod hash;
 pub mod integrator;
 pub mod light;
+pub mod light_tree;
 pub mod material;
 pub mod memory;
 pub mod numeric;

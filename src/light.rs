@@ -309,15 +309,6 @@ pub enum Side {
     Back,
 }
 
-/// The nearest of `lights` whose surface `ray` crosses before `ray.t_max`:
-/// the light, the ray parameter, and the side.
-pub fn nearest_light<'a>(lights: &'a [Light], ray: &Ray) -> Option<(&'a Light, f32, Side)> {
-    lights
-        .iter()
-        .filter_map(|light| light.crossing(ray).map(|(t, side)| (light, t, side)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-}
-
 /// The smooth edge of a spot light with unit `axis`, towards the unit
 /// direction `dir`: 1 inside `falloff_start`, 0 outside `cone_angle`, and a
 /// smoothstep in the cosine between (as pbrt-v4 does). Cosines are handled

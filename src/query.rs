@@ -7,7 +7,7 @@
 use glam::Vec3;
 
 use crate::accel::{Hit, Intersector, Ray};
-use crate::light::{nearest_light, Light, Side};
+use crate::light::{Light, Side};
 use crate::material::Material;
 use crate::optics;
 use crate::scene::Scene;
@@ -96,7 +96,7 @@ impl<'a> SceneQuery<'a> {
     /// the ceiling above the light (BENCHMARKS.md, issue 16).
     fn interaction(&self, ray: &Ray, hit: Option<Hit>) -> Option<Interaction<'a>> {
         let nearest = Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..*ray };
-        match nearest_light(&self.scene.lights, &nearest) {
+        match self.scene.lights.nearest_crossing(&nearest) {
             Some((light, t, Side::Front)) => {
                 return Some(Interaction::Emitter { light, t, radiance: light.front_radiance() });
             }
@@ -126,7 +126,7 @@ impl<'a> SceneQuery<'a> {
     /// from a wall behind a light to the camera (the light tracer's, VCM's)
     /// once passed through it and added the wall to the light's pixels.
     fn crosses_a_light(&self, ray: &Ray) -> bool {
-        self.scene.lights.iter().any(|light| light.crossing(ray).is_some())
+        self.scene.lights.any_crossing(ray)
     }
 
     /// [`SceneQuery::occluded`] for every ray of `rays` at once, into

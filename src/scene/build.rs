@@ -15,6 +15,7 @@ use crate::config::limits::{MAX_DISTANCE, MIN_EXTENT};
 use crate::config::{PhotonConfig, RenderConfig, SppmConfig};
 use crate::error::{Error, Location, Result};
 use crate::light::Light;
+use crate::light_tree::Lights;
 use crate::material::Material;
 
 /// Finds a material's index by its name in the file (an error names the known ones).
@@ -113,7 +114,7 @@ impl Builder<'_> {
             camera,
             config,
             materials,
-            lights,
+            lights: Lights::new(lights),
             meshes,
             warnings: self.warnings,
         })

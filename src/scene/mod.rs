@@ -19,7 +19,7 @@ use glam::{DVec3, Vec3};
 use crate::accel::embree::TriangleView;
 use crate::config::RenderConfig;
 use crate::error::{Error, Location, Result};
-use crate::light::Light;
+use crate::light_tree::Lights;
 use crate::material::Material;
 use build::Builder;
 pub use camera::Camera;
@@ -42,8 +42,8 @@ pub struct Scene {
     pub config: RenderConfig,
     /// Materials; meshes refer to them by index.
     pub materials: Vec<Material>,
-    /// Light sources.
-    pub lights: Vec<Light>,
+    /// Light sources, with what finds the area lights a ray crosses.
+    pub lights: Lights,
     /// Triangle meshes; a mesh's index is its Embree geometry id.
     pub meshes: Vec<Mesh>,
     /// Things worth telling the user that are not errors.
