@@ -240,6 +240,39 @@ impl Light {
         }
     }
 
+    /// What the light could send to `p`, unblocked, as a weight for
+    /// choosing among many lights (`integrator/direct.rs`): its power over
+    /// the squared distance (from an area light's centre, but no nearer
+    /// than half its diagonal), a spot light's intensity that way; 0 only
+    /// where it sends `p` nothing (behind an area light's plane, outside a
+    /// spot's cone), so that every light that could light `p` may be
+    /// chosen.
+    pub fn reach(&self, p: Vec3) -> f32 {
+        let (power, d2) = match *self {
+            Light::Point { position, power } => (
+                power.element_sum() as f64 / (4.0 * std::f64::consts::PI),
+                (p - position).as_dvec3().length_squared(),
+            ),
+            Light::Spot { position, .. } => {
+                let to_p = (p - position).as_dvec3();
+                let Some((_, intensity)) = self.intensity((to_p / to_p.length()).as_vec3()) else {
+                    return 0.0;
+                };
+                (intensity.element_sum() as f64, to_p.length_squared())
+            }
+            Light::Area { center, power, face, .. } => {
+                let to_p = (p - center).as_dvec3();
+                if face.normal.as_dvec3().dot(to_p) <= 0.0 {
+                    return 0.0;
+                }
+                let half_diagonal2 = 0.25 * (face.length2.0 + face.length2.1 + 2.0 * face.skew.abs());
+                (power.element_sum() as f64 / std::f64::consts::PI, to_p.length_squared().max(half_diagonal2))
+            }
+        };
+        // Within the range of f32, and finite at the light itself.
+        (power / d2.max(f64::MIN_POSITIVE)).clamp(0.0, 1e30) as f32
+    }
+
     /// Solid-angle density, seen from `from`, with which
     /// [`Light::sample_incident`] picks the point `on` of an area light
     /// (uniformly by area): `d^2 / (A cos_l)`. 0 for point and spot lights,

@@ -14,7 +14,7 @@
 
 use glam::Vec3;
 
-use super::direct::{direct_light, LightSampling};
+use super::direct::{direct_light, LightChoice, LightSampling};
 use super::pixels::{average_over_pixel, render_pixels};
 use super::{Context, Integrator, Progress, Rendered};
 use crate::accel::Ray;
@@ -92,6 +92,9 @@ fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) ->
                                    // Solid-angle pdf of the last non-delta bounce, for MIS on lights it
                                    // finds; `None` after the camera or a delta bounce (no MIS then).
     let mut last_pdf: Option<f32> = None;
+    // Where that bounce left from: with many lights, the chance that its
+    // light sample picked a light depends on the point.
+    let mut last_point = Vec3::ZERO;
     for depth in 0..ctx.config.max_depth {
         let sp = match query.first(&ray, count) {
             None => return out,
@@ -99,7 +102,9 @@ fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) ->
                 let weight = match last_pdf {
                     None => 1.0,
                     Some(p_bsdf) => {
-                        let p_light = light.pdf_solid_angle(ray.at(t), ray.origin);
+                        let lights = &query.scene.lights;
+                        let p_light = light.pdf_solid_angle(ray.at(t), ray.origin)
+                            * LightChoice::mis_factor(lights, light, last_point);
                         p_bsdf / (p_bsdf + p_light)
                     }
                 };
@@ -127,6 +132,7 @@ fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) ->
         let Some(s) = bsdf.sample(rng.uniform(), rng) else { return out };
         throughput *= s.weight;
         last_pdf = s.pdf;
+        last_point = sp.p;
         class = class.after(s.kind.is_specular());
         if depth >= 3 {
             match russian_roulette(throughput.max_element().clamp(0.05, 1.0), rng.uniform()) {

@@ -1,0 +1,130 @@
+//! Scenes with more lights than a shading point samples one by one
+//! (`integrator::direct::EVERY_LIGHT_UP_TO`): each point draws some of them,
+//! in proportion to what each could send it. The images stay unbiased:
+//! they agree with the light tracer, which leaves from the lights by their
+//! power and never draws among them at a point.
+
+use std::path::Path;
+
+use caustix::accel::{build, Backend};
+use caustix::config::IntegratorKind;
+use caustix::film::Aov;
+use caustix::integrator::direct::EVERY_LIGHT_UP_TO;
+use caustix::scene::Scene;
+use caustix::RenderConfig;
+
+/// A floor under 36 area lights of different powers, sizes and heights,
+/// close enough to fill much of its sky (one turned away, lighting nothing), two point lights and a spot
+/// light; the camera between them and the floor, looking down, sees no
+/// light. Every light path reaches the camera through the floor alone.
+fn scene() -> Scene {
+    let mut text = String::from(
+        r#"
+        [camera]
+        eye = [0, 0.6, 0]
+        look_at = [0, 0, 0]
+        up = [0, 0, -1]
+        fov = 100
+        [render]
+        max_depth = 3
+        [materials.floor]
+        diffuse = 0.7
+        [[quad]]
+        center = [0, 0, 0]
+        u = [6, 0, 0]
+        v = [0, 0, -6]
+        material = "floor"
+        [[point_light]]
+        position = [0.4, 0.8, 0.3]
+        power = 2
+        [[point_light]]
+        position = [-0.9, 1.5, -0.2]
+        power = 6
+        [[spot_light]]
+        position = [0.2, 1.2, -0.6]
+        direction = [0.3, -1, 0.2]
+        cone_angle = 35
+        power = 5
+        "#,
+    );
+    for i in 0..36 {
+        let (x, z) = ((i % 6) as f32 * 0.5 - 1.25, (i / 6) as f32 * 0.5 - 1.25);
+        let (size, height, power) =
+            (0.2 + 0.05 * (i % 5) as f32, 0.9 + 0.1 * (i % 3) as f32, 1.0 + (i % 7) as f32);
+        // u x v = x x z points down, but for the last, which faces up.
+        let v = if i == 35 { -size } else { size };
+        text += &format!(
+            "[[area_light]]\ncenter = [{x}, {height}, {z}]\nu = [{size}, 0, 0]\nv = [0, 0, {v}]\npower = {power}\n"
+        );
+    }
+    Scene::from_toml(&text, Path::new("many-lights.toml")).unwrap()
+}
+
+/// The mean of the image `integrator` renders at 32 x 32 with `samples`.
+fn mean(scene: &Scene, integrator: IntegratorKind, samples: u32) -> f64 {
+    let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
+    let config = RenderConfig { integrator, samples, width: 32, height: 32, seed: 3, ..scene.config.clone() };
+    let image = caustix::render(scene, accel.as_ref(), &config, &|_| {}).unwrap().film.image(Aov::Final);
+    image.pixels.iter().map(|p| p.element_sum() as f64).sum::<f64>() / image.pixels.len() as f64
+}
+
+#[test]
+fn drawing_among_many_lights_keeps_the_image_unbiased() {
+    let scene = scene();
+    assert!(scene.lights.len() > EVERY_LIGHT_UP_TO);
+    let reference = mean(&scene, IntegratorKind::Light, 4096);
+    for (integrator, samples) in
+        [(IntegratorKind::Whitted, 16), (IntegratorKind::Path, 64), (IntegratorKind::Sppm, 16)]
+    {
+        let m = mean(&scene, integrator, samples);
+        eprintln!("{integrator:?}: mean {m:.5} against the light tracer's {reference:.5}");
+        assert!((m / reference - 1.0).abs() < 0.005, "{integrator:?}: {m} against {reference}");
+    }
+}
+
+/// Shadow rays a pixel of Whitted's one-sample render of `scene` traces
+/// with `light_samples` shadow rays a light.
+fn shadow_rays_a_pixel(scene: &Scene, light_samples: u32) -> f64 {
+    let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
+    let config = RenderConfig {
+        integrator: IntegratorKind::Whitted,
+        samples: 1,
+        width: 16,
+        height: 16,
+        light_samples: Some(light_samples),
+        ..scene.config.clone()
+    };
+    let rendered = caustix::render(scene, accel.as_ref(), &config, &|_| {}).unwrap();
+    rendered.stats.rays.shadow as f64 / 256.0
+}
+
+#[test]
+fn a_point_draws_a_few_of_many_lights_and_samples_each_of_a_few() {
+    // Every point of the floor is lit by 35 area lights and three others:
+    // it draws EVERY_LIGHT_UP_TO of them a light sample (no ray is
+    // skipped: every light drawn lights the floor).
+    let scene = scene();
+    for samples in [1, 3] {
+        assert_eq!(shadow_rays_a_pixel(&scene, samples), (EVERY_LIGHT_UP_TO as u32 * samples) as f64);
+    }
+    // Turned away from the floor but for two, the area lights leave five
+    // lights that reach it: each takes its samples, as with few lights.
+    let mut text = String::from(
+        "[camera]\neye = [0, 0.6, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, -1]\nfov = 60\n\
+         [materials.floor]\ndiffuse = 0.7\n\
+         [[quad]]\ncenter = [0, 0, 0]\nu = [6, 0, 0]\nv = [0, 0, -6]\nmaterial = \"floor\"\n\
+         [[point_light]]\nposition = [0.4, 0.8, 0.3]\npower = 2\n\
+         [[point_light]]\nposition = [-0.4, 0.8, 0.3]\npower = 2\n\
+         [[point_light]]\nposition = [0, 0.8, -0.3]\npower = 2\n",
+    );
+    for i in 0..12 {
+        let v = if i < 2 { 0.2 } else { -0.2 };
+        text += &format!(
+            "[[area_light]]\ncenter = [{}, 1, 0]\nu = [0.2, 0, 0]\nv = [0, 0, {v}]\npower = 1\n",
+            i as f32 * 0.3 - 1.6
+        );
+    }
+    let scene = Scene::from_toml(&text, Path::new("turned-away.toml")).unwrap();
+    assert!(scene.lights.len() > EVERY_LIGHT_UP_TO);
+    assert_eq!(shadow_rays_a_pixel(&scene, 3), (2 * 3 + 3) as f64);
+}
