@@ -6,7 +6,8 @@
 //!   only `unsafe` code, in `accel::embree`) and the native BVH.
 //! - [`config`]: [`RenderConfig`], every setting and its limits.
 //! - [`material`], [`light`], [`optics`], [`sampling`]: what surfaces and
-//!   lights are, the Fresnel/Snell formulas, random numbers.
+//!   lights are, the Fresnel/Snell formulas, random numbers;
+//!   [`light_tree`]: which area lights a ray crosses, among many.
 //! - [`scene`]: the scene file, camera, meshes, built-in shapes, the teapot, OBJ, PLY.
 //! - [`query`]: the first interaction along a ray (surface or light) and ray spawning.
 //! - [`bsdf`]: a material at a surface point: evaluate, sample, pdf; Russian roulette.
