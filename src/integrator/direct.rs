@@ -54,39 +54,87 @@ pub fn direct_light(
     rng: &mut Rng,
     count: &mut RayCount,
 ) -> Vec3 {
-    let lights = &query.scene.lights;
-    let samples = |light: &Light| match sampling {
-        LightSampling::Stratified { samples } if !light.is_delta() => samples,
-        _ => 1,
-    };
-    let choice = (lights.len() > EVERY_LIGHT_UP_TO).then(|| LightChoice::at(lights, sp.p));
-    match &choice {
-        // Too many lights reach the point to sample each: draw among them.
-        Some(choice) if choice.reaching > EVERY_LIGHT_UP_TO => {
-            let draws = choice.draws(sampling);
-            let mut shadows = Shadows::new(query, sp, bsdf, sampling, draws as usize);
-            let mut walk = choice.walk();
-            for i in 0..draws {
-                // Stratified over the lights' reach.
-                let Some((light, share)) = walk.at((i as f32 + rng.uniform()) / draws as f32) else { break };
-                let expected = choice.expected(draws, share);
-                shadows.add(light, rng.uniform2(), expected, expected, count);
-            }
-            shadows.finish(count)
+    let plan = LightSamples::at(&query.scene.lights, sp.p, sampling);
+    let mut shadows = Shadows::new(query, sp, bsdf, sampling, plan.most() as usize);
+    plan.take(rng, |_, light, u, divide_by, expected| shadows.add(light, u, divide_by, expected, count));
+    shadows.finish(count)
+}
+
+/// The light samples a shading point takes. Up to [`EVERY_LIGHT_UP_TO`]
+/// lights, or where no more than that many reach the point, each light
+/// (that reaches it) takes its samples, stratified over its area; where
+/// more reach it, the point draws `EVERY_LIGHT_UP_TO` times a light's
+/// samples among them ([`LightChoice`]).
+pub struct LightSamples<'l> {
+    lights: &'l [Light],
+    sampling: LightSampling,
+    /// With many lights: how the point chooses among them.
+    choice: Option<LightChoice<'l>>,
+}
+
+impl<'l> LightSamples<'l> {
+    /// The samples at `p` of `lights` under `sampling` (one a light under
+    /// multiple importance sampling, and for point and spot lights).
+    pub fn at(lights: &'l [Light], p: Vec3, sampling: LightSampling) -> Self {
+        let choice = (lights.len() > EVERY_LIGHT_UP_TO).then(|| LightChoice::at(lights, p));
+        LightSamples { lights, sampling, choice }
+    }
+
+    /// Samples light `light` takes when each light takes its own.
+    fn of(&self, light: &Light) -> u32 {
+        match self.sampling {
+            LightSampling::Stratified { samples } if !light.is_delta() => samples,
+            _ => 1,
         }
-        _ => {
-            // Every light that reaches the point (that may reach it, with
-            // few lights).
-            let reaches = |i: usize| choice.as_ref().is_none_or(|c| c.reach[i] > 0.0);
-            let rays: u32 = (0..lights.len()).filter(|&i| reaches(i)).map(|i| samples(&lights[i])).sum();
-            let mut shadows = Shadows::new(query, sp, bsdf, sampling, rays as usize);
-            for light in (0..lights.len()).filter(|&i| reaches(i)).map(|i| &lights[i]) {
-                let samples = samples(light);
-                for i in 0..samples {
-                    shadows.add(light, stratified(i, samples, rng), samples as f32, 1.0, count);
+    }
+
+    /// Whether the point draws among the lights.
+    fn draws(&self) -> Option<(&LightChoice<'l>, u32)> {
+        self.choice.as_ref().filter(|c| c.reaching > EVERY_LIGHT_UP_TO).map(|c| (c, c.draws(self.sampling)))
+    }
+
+    /// Whether light `i` may reach the point (with few lights, each may).
+    fn reaches(&self, i: usize) -> bool {
+        self.choice.as_ref().is_none_or(|c| c.reach[i] > 0.0)
+    }
+
+    /// How many samples the point takes, at most.
+    pub fn most(&self) -> u32 {
+        match self.draws() {
+            Some((_, draws)) => draws,
+            None => {
+                (0..self.lights.len()).filter(|&i| self.reaches(i)).map(|i| self.of(&self.lights[i])).sum()
+            }
+        }
+    }
+
+    /// Hands `sample` each light sample in turn: the light's index and the
+    /// light, the uniform pair for the point on it, what its light is
+    /// divided by (the samples the light takes, or is expected to), and the
+    /// count the light-sampling strategy expects of it there (its density's
+    /// factor under multiple importance sampling: 1 where each light takes
+    /// one sample).
+    pub fn take(&self, rng: &mut Rng, mut sample: impl FnMut(usize, &'l Light, Vec2, f32, f32)) {
+        match self.draws() {
+            Some((choice, draws)) => {
+                let mut walk = choice.walk();
+                for i in 0..draws {
+                    // Stratified over the lights' reach.
+                    let Some((index, share)) = walk.at((i as f32 + rng.uniform()) / draws as f32) else {
+                        break;
+                    };
+                    let expected = choice.expected(draws, share);
+                    sample(index, &self.lights[index], rng.uniform2(), expected, expected);
                 }
             }
-            shadows.finish(count)
+            None => {
+                for (index, light) in self.lights.iter().enumerate().filter(|&(i, _)| self.reaches(i)) {
+                    let n = self.of(light);
+                    for i in 0..n {
+                        sample(index, light, stratified(i, n, rng), n as f32, 1.0);
+                    }
+                }
+            }
         }
     }
 }
@@ -237,17 +285,17 @@ struct Walk<'c, 'l> {
     current: Option<usize>,
 }
 
-impl<'l> Walk<'_, 'l> {
-    /// The light whose part holds `u * total` (`u` no smaller than the last
-    /// call's), and its share of the total. A `u` that rounds past the end
-    /// picks the last light with any reach.
-    fn at(&mut self, u: f32) -> Option<(&'l Light, f32)> {
+impl Walk<'_, '_> {
+    /// The index of the light whose part holds `u * total` (`u` no smaller
+    /// than the last call's), and its share of the total. A `u` that rounds
+    /// past the end picks the last light with any reach.
+    fn at(&mut self, u: f32) -> Option<(usize, f32)> {
         let c = self.choice;
         let target = u * c.total;
         loop {
             if let Some(i) = self.current {
                 if target < self.end || self.next == c.lights.len() {
-                    return Some((&c.lights[i], c.reach[i] / c.total));
+                    return Some((i, c.reach[i] / c.total));
                 }
             } else if self.next == c.lights.len() {
                 return None;

@@ -33,6 +33,7 @@ mod grid;
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::direct::{LightChoice, LightSamples, LightSampling};
 use super::path::PathClass;
 use super::pixels::render_pixels;
 use super::{Context, Integrator, Progress, Rendered, SampleRange};
@@ -460,6 +461,11 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
         if !path.arrive(sp.t * ray.dir.length(), dir.dot(sp.ns)) {
             return;
         }
+        if path.length == 1 {
+            // Next-event estimation from this vertex would sample the
+            // light's point with this many samples ([`LightSamples`]).
+            path.d_vcm *= mis(LightChoice::mis_factor(lights, light, sp.p));
+        }
         let bsdf = Bsdf::new(query.material(&sp), &sp, dir);
         if bsdf.has_smooth() {
             if let Some((pixel, value)) = connect_to_camera(ctx, pass, &sp, &bsdf, &path, &mut out.rays) {
@@ -550,6 +556,9 @@ fn camera_path(
     let mut out = Sample::default();
     let mut class = PathClass::Specular;
     let mut found_surface = false;
+    // Where the path last scattered (with many lights, the light sample
+    // there chose among them by its place).
+    let mut last_point = Vec3::ZERO;
     loop {
         let sp = match query.first(&ray, count) {
             None => return out,
@@ -560,7 +569,10 @@ fn camera_path(
                     let dir = ray.dir.normalize();
                     let pdfs = light.emission_pdfs(-dir);
                     if path.arrive(t * ray.dir.length(), pdfs.cos) {
-                        let w_camera = mis(pdfs.direct_area) * path.d_vcm
+                        // Next-event estimation at the vertex before would
+                        // have sampled this light with this many samples.
+                        let nee = LightChoice::mis_factor(lights, light, last_point);
+                        let w_camera = mis(pdfs.direct_area * nee) * path.d_vcm
                             + mis(pass.pick_of(lights, light) * pdfs.emit) * path.d_vc;
                         *class.slot(&mut out) += finite(path.throughput * radiance / (1.0 + w_camera) as f32);
                     }
@@ -622,14 +634,17 @@ fn camera_path(
             }
         }
         let Some((next, specular)) = path.scatter(&bsdf, &sp, pass, rng) else { return out };
+        last_point = sp.p;
         class = class.after(specular);
         ray = next;
         path.length += 1;
     }
 }
 
-/// Next-event estimation at a camera vertex: one sample of every light,
-/// weighted against reaching it by BSDF sampling and from light subpaths.
+/// Next-event estimation at a camera vertex: one sample of every light
+/// (or, where many reach it, of as many drawn among them:
+/// [`LightSamples`]), weighted against reaching it by BSDF sampling and
+/// from light subpaths.
 fn next_event(
     ctx: &Context,
     pass: &Pass,
@@ -640,33 +655,33 @@ fn next_event(
     count: &mut RayCount,
 ) -> Vec3 {
     let mut sum = Vec3::ZERO;
-    for (light, &pick) in ctx.scene().lights.iter().zip(pass.pick) {
-        let Some(sample) = light.sample_incident(sp.p, rng.uniform2()) else {
-            continue;
-        };
+    let plan = LightSamples::at(&ctx.scene().lights, sp.p, LightSampling::MultipleImportance);
+    plan.take(rng, |index, light, u, divide_by, expected| {
+        let Some(sample) = light.sample_incident(sp.p, u) else { return };
         let to = sample.position - sp.p;
         let distance2 = to.length_squared();
         let wi = to / distance2.sqrt();
-        let Some(lobes) = lobes(bsdf, sp, wi) else { continue };
+        let Some(lobes) = lobes(bsdf, sp, wi) else { return };
         let pdfs = light.emission_pdfs(-wi);
         if pdfs.cos <= 0.0 {
-            continue;
+            return;
         }
-        // Solid-angle density of this light sample; a point light's is
-        // its squared distance (its point is certain).
-        let direct = pdfs.direct_area * distance2 / pdfs.cos;
+        // Solid-angle density of this light sample, times the samples
+        // the light is expected to take here; a point light's is its
+        // squared distance (its point is certain).
+        let direct = expected * pdfs.direct_area * distance2 / pdfs.cos;
         let by_bsdf = if light.is_delta() { 0.0 } else { lobes.forward };
         let w_light = mis(by_bsdf / direct);
-        let w_camera = mis(pick * pdfs.emit * lobes.cos / (direct * pdfs.cos))
+        let w_camera = mis(pass.pick[index] * pdfs.emit * lobes.cos / (direct * pdfs.cos))
             * (pass.vm_weight + path.d_vcm + path.d_vc * mis(lobes.reverse));
-        let value = lobes.f * sample.irradiance * (lobes.cos / (w_light + 1.0 + w_camera) as f32);
+        let value = lobes.f * sample.irradiance * (lobes.cos / divide_by / (w_light + 1.0 + w_camera) as f32);
         if value != Vec3::ZERO
             && value.is_finite()
             && !ctx.query.occluded(&sp.spawn_to(sample.position), count)
         {
             sum += value;
         }
-    }
+    });
     sum
 }
 
