@@ -179,16 +179,19 @@ impl Light {
         // than a right one need the pair solved together; projecting on
         // each edge alone would find another shape than the one sampled.
         let local = (ray.at(t) - center).as_dvec3();
-        let (lu, lv) = (local.dot(u.as_dvec3()), local.dot(v.as_dvec3()));
         let ((uu, vv), uv) = (face.length2, face.skew);
-        let (a, b) = if uv == 0.0 {
-            (lu / uu, lv / vv)
+        let inside = |x: f64| x.abs() <= 0.5;
+        let (lu, lv) = (local.dot(u.as_dvec3()), || local.dot(v.as_dvec3()));
+        let crossed = if uv == 0.0 {
+            // A rectangle (most lights): each edge alone, and most rays
+            // that miss it miss on the first.
+            inside(lu / uu) && inside(lv() / vv)
         } else {
-            let det = uu * vv - uv * uv;
-            ((vv * lu - uv * lv) / det, (uu * lv - uv * lu) / det)
+            let (lv, det) = (lv(), uu * vv - uv * uv);
+            inside((vv * lu - uv * lv) / det) && inside((uu * lv - uv * lu) / det)
         };
         let side = if facing < 0.0 { Side::Front } else { Side::Back };
-        (a.abs() <= 0.5 && b.abs() <= 0.5).then_some((t, side))
+        crossed.then_some((t, side))
     }
 
     /// Emits one photon from the uniforms `u` (position on the light) and `v`

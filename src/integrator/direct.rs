@@ -55,9 +55,68 @@ pub fn direct_light(
     count: &mut RayCount,
 ) -> Vec3 {
     let plan = LightSamples::at(&query.scene.lights, sp.p, sampling);
-    let mut shadows = Shadows::new(query, sp, bsdf, sampling, plan.most() as usize);
-    plan.take(rng, |_, light, u, divide_by, expected| shadows.add(light, u, divide_by, expected, count));
-    shadows.finish(count)
+    // Where a batch would not pay, each shadow ray is traced as it is drawn.
+    let mut batch = query.accel.batches_pay((plan.most() as usize).min(BATCH)).then(ShadowBatch::new);
+    let mut sum = Vec3::ZERO;
+    for (_, light, u, divide_by, expected) in plan.take(rng) {
+        let Some((ray, contribution)) = shadow_ray(sp, bsdf, sampling, light, u, divide_by, expected) else {
+            continue;
+        };
+        match &mut batch {
+            Some(batch) => {
+                if batch.push(ray, contribution) {
+                    sum = batch.flush(query, sum, count);
+                }
+            }
+            None => {
+                if !query.occluded(&ray, count) {
+                    sum += contribution;
+                }
+            }
+        }
+    }
+    match &mut batch {
+        Some(batch) => batch.flush(query, sum, count),
+        None => sum,
+    }
+}
+
+/// The shadow ray of a sample of `light` at `sp` from the uniform pair `u`,
+/// and the light it lets through if open, divided by `divide_by` (the
+/// samples the light takes at this point, or is expected to); under
+/// multiple importance sampling, `expected` is that expected count, which
+/// multiplies the light's density against the BSDF's. `None` where the
+/// sample cannot add anything.
+#[inline]
+fn shadow_ray(
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    sampling: LightSampling,
+    light: &Light,
+    u: Vec2,
+    divide_by: f32,
+    expected: f32,
+) -> Option<(Ray, Vec3)> {
+    let ls = light.sample_incident(sp.p, u)?;
+    let wi = (ls.position - sp.p).normalize();
+    let cos = wi.dot(sp.ns);
+    if cos <= 0.0 || wi.dot(sp.ng) <= 0.0 || ls.irradiance == Vec3::ZERO {
+        return None;
+    }
+    let f = bsdf.eval(wi);
+    if f == Vec3::ZERO {
+        return None;
+    }
+    let contribution = match sampling {
+        LightSampling::Stratified { .. } => f * ls.irradiance * (cos / divide_by),
+        LightSampling::MultipleImportance if light.is_delta() => f * ls.irradiance * (cos / divide_by),
+        LightSampling::MultipleImportance => {
+            let p_light = expected * light.pdf_solid_angle(ls.position, sp.p);
+            let p_bsdf = bsdf.pdf(wi);
+            f * ls.irradiance * (cos / divide_by) * (p_light / (p_light + p_bsdf))
+        }
+    };
+    Some((sp.spawn_to(ls.position), contribution))
 }
 
 /// The light samples a shading point takes. Up to [`EVERY_LIGHT_UP_TO`]
@@ -108,107 +167,62 @@ impl<'l> LightSamples<'l> {
         }
     }
 
-    /// Hands `sample` each light sample in turn: the light's index and the
-    /// light, the uniform pair for the point on it, what its light is
-    /// divided by (the samples the light takes, or is expected to), and the
-    /// count the light-sampling strategy expects of it there (its density's
-    /// factor under multiple importance sampling: 1 where each light takes
-    /// one sample).
-    pub fn take(&self, rng: &mut Rng, mut sample: impl FnMut(usize, &'l Light, Vec2, f32, f32)) {
-        match self.draws() {
-            Some((choice, draws)) => {
-                let mut walk = choice.walk();
-                for i in 0..draws {
-                    // Stratified over the lights' reach.
-                    let Some((index, share)) = walk.at((i as f32 + rng.uniform()) / draws as f32) else {
-                        break;
-                    };
-                    let expected = choice.expected(draws, share);
-                    sample(index, &self.lights[index], rng.uniform2(), expected, expected);
-                }
-            }
-            None => {
-                for (index, light) in self.lights.iter().enumerate().filter(|&(i, _)| self.reaches(i)) {
-                    let n = self.of(light);
-                    for i in 0..n {
-                        sample(index, light, stratified(i, n, rng), n as f32, 1.0);
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// The shadow rays of one shading point and what the open ones let through.
-struct Shadows<'q, 'a> {
-    query: &'q SceneQuery<'a>,
-    sp: &'q SurfacePoint,
-    bsdf: &'q Bsdf<'q>,
-    sampling: LightSampling,
-    /// Where batches pay.
-    batch: Option<ShadowBatch>,
-    sum: Vec3,
-}
-
-impl<'q, 'a> Shadows<'q, 'a> {
-    /// For `rays` shadow rays at most.
-    fn new(
-        query: &'q SceneQuery<'a>,
-        sp: &'q SurfacePoint,
-        bsdf: &'q Bsdf<'q>,
-        sampling: LightSampling,
-        rays: usize,
-    ) -> Self {
-        // Where a batch would not pay, each shadow ray is traced as it is drawn.
-        let batch = query.accel.batches_pay(rays.min(BATCH)).then(ShadowBatch::new);
-        Shadows { query, sp, bsdf, sampling, batch, sum: Vec3::ZERO }
-    }
-
-    /// A sample of `light` from the uniform pair `u`, its light divided by
-    /// `divide_by` (the samples the light takes at this point, or expects
-    /// to); under multiple importance sampling, `expected` is that expected
-    /// count, which multiplies the light's density against the BSDF's.
-    fn add(&mut self, light: &Light, u: Vec2, divide_by: f32, expected: f32, count: &mut RayCount) {
-        let sp = self.sp;
-        let Some(ls) = light.sample_incident(sp.p, u) else { return };
-        let wi = (ls.position - sp.p).normalize();
-        let cos = wi.dot(sp.ns);
-        if cos <= 0.0 || wi.dot(sp.ng) <= 0.0 || ls.irradiance == Vec3::ZERO {
-            return;
-        }
-        let f = self.bsdf.eval(wi);
-        if f == Vec3::ZERO {
-            return;
-        }
-        let contribution = match self.sampling {
-            LightSampling::Stratified { .. } => f * ls.irradiance * (cos / divide_by),
-            LightSampling::MultipleImportance if light.is_delta() => f * ls.irradiance * (cos / divide_by),
-            LightSampling::MultipleImportance => {
-                let p_light = expected * light.pdf_solid_angle(ls.position, sp.p);
-                let p_bsdf = self.bsdf.pdf(wi);
-                f * ls.irradiance * (cos / divide_by) * (p_light / (p_light + p_bsdf))
-            }
+    /// Each light sample in turn: the light's index and the light, the
+    /// uniform pair for the point on it, what its light is divided by (the
+    /// samples the light takes, or is expected to), and the count the
+    /// light-sampling strategy expects of it there (its density's factor
+    /// under multiple importance sampling: 1 where each light takes its
+    /// own samples).
+    pub fn take<'p, 'r>(&'p self, rng: &'r mut Rng) -> Taken<'p, 'l, 'r> {
+        let state = match self.draws() {
+            Some((choice, draws)) => State::Drawing { walk: choice.walk(), draws, i: 0 },
+            None => State::Each { light: 0, i: 0 },
         };
-        let ray = sp.spawn_to(ls.position);
-        match &mut self.batch {
-            Some(batch) => {
-                if batch.push(ray, contribution) {
-                    self.sum = batch.flush(self.query, self.sum, count);
-                }
-            }
-            None => {
-                if !self.query.occluded(&ray, count) {
-                    self.sum += contribution;
-                }
-            }
-        }
+        Taken { plan: self, rng, state }
     }
+}
 
-    /// The light of every open shadow ray.
-    fn finish(mut self, count: &mut RayCount) -> Vec3 {
-        match &mut self.batch {
-            Some(batch) => batch.flush(self.query, self.sum, count),
-            None => self.sum,
+/// The light samples of [`LightSamples::take`], drawn as they are asked for.
+pub struct Taken<'p, 'l, 'r> {
+    plan: &'p LightSamples<'l>,
+    rng: &'r mut Rng,
+    state: State<'p, 'l>,
+}
+
+enum State<'p, 'l> {
+    /// Draw `i` of `draws` among many lights.
+    Drawing { walk: Walk<'p, 'l>, draws: u32, i: u32 },
+    /// Sample `i` of light `light`, each light taking its own.
+    Each { light: usize, i: u32 },
+}
+
+impl<'l> Iterator for Taken<'_, 'l, '_> {
+    type Item = (usize, &'l Light, Vec2, f32, f32);
+
+    #[inline]
+    fn next(&mut self) -> Option<Self::Item> {
+        let plan = self.plan;
+        match &mut self.state {
+            State::Drawing { walk, draws, i } => {
+                if *i == *draws {
+                    return None;
+                }
+                // Stratified over the lights' reach.
+                let (index, share) = walk.at((*i as f32 + self.rng.uniform()) / *draws as f32)?;
+                let expected = walk.choice.expected(*draws, share);
+                *i += 1;
+                Some((index, &plan.lights[index], self.rng.uniform2(), expected, expected))
+            }
+            State::Each { light, i } => loop {
+                let l = plan.lights.get(*light)?;
+                let n = plan.of(l);
+                if *i < n && plan.reaches(*light) {
+                    let u = stratified(*i, n, self.rng);
+                    *i += 1;
+                    return Some((*light, l, u, n as f32, 1.0));
+                }
+                (*light, *i) = (*light + 1, 0);
+            },
         }
     }
 }
@@ -253,6 +267,7 @@ impl<'l> LightChoice<'l> {
     /// multiple importance sampling: the draws expected to pick it at `p`
     /// (one, where every light that reaches `p` takes a sample). For the
     /// path tracer's weight where a path meets a light.
+    #[inline]
     pub fn mis_factor(lights: &[Light], light: &Light, p: Vec3) -> f32 {
         if lights.len() <= EVERY_LIGHT_UP_TO {
             return 1.0;

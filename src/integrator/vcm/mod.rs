@@ -656,15 +656,15 @@ fn next_event(
 ) -> Vec3 {
     let mut sum = Vec3::ZERO;
     let plan = LightSamples::at(&ctx.scene().lights, sp.p, LightSampling::MultipleImportance);
-    plan.take(rng, |index, light, u, divide_by, expected| {
-        let Some(sample) = light.sample_incident(sp.p, u) else { return };
+    for (index, light, u, divide_by, expected) in plan.take(rng) {
+        let Some(sample) = light.sample_incident(sp.p, u) else { continue };
         let to = sample.position - sp.p;
         let distance2 = to.length_squared();
         let wi = to / distance2.sqrt();
-        let Some(lobes) = lobes(bsdf, sp, wi) else { return };
+        let Some(lobes) = lobes(bsdf, sp, wi) else { continue };
         let pdfs = light.emission_pdfs(-wi);
         if pdfs.cos <= 0.0 {
-            return;
+            continue;
         }
         // Solid-angle density of this light sample, times the samples
         // the light is expected to take here; a point light's is its
@@ -681,7 +681,7 @@ fn next_event(
         {
             sum += value;
         }
-    });
+    }
     sum
 }
 
