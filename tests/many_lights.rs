@@ -15,51 +15,44 @@ use caustix::integrator::direct::EVERY_LIGHT_UP_TO;
 use caustix::scene::Scene;
 use caustix::RenderConfig;
 
+/// A diffuse floor seen straight down from `eye_height` with a field of
+/// view of `fov` degrees, under `lights` (scene-file text).
+fn floor_under(eye_height: f32, fov: f32, lights: &str) -> Scene {
+    let text = format!(
+        "[camera]\neye = [0, {eye_height}, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, -1]\nfov = {fov}\n\
+         [render]\nmax_depth = 3\n[materials.floor]\ndiffuse = 0.7\n\
+         [[quad]]\ncenter = [0, 0, 0]\nu = [6, 0, 0]\nv = [0, 0, -6]\nmaterial = \"floor\"\n{lights}"
+    );
+    Scene::from_toml(&text, Path::new("floor.toml")).unwrap()
+}
+
+/// An area light at `center`, `size` along x and `v` along z (`u x v` =
+/// `x x z` faces down for a positive `v`).
+fn area_light([x, y, z]: [f32; 3], size: f32, v: f32, power: f32) -> String {
+    format!(
+        "[[area_light]]\ncenter = [{x}, {y}, {z}]\nu = [{size}, 0, 0]\nv = [0, 0, {v}]\npower = {power}\n"
+    )
+}
+
 /// A floor under 36 area lights of different powers, sizes and heights,
-/// close enough to fill much of its sky (one turned away, lighting nothing), two point lights and a spot
-/// light; the camera between them and the floor, looking down, sees no
-/// light. Every light path reaches the camera through the floor alone.
+/// close enough to fill much of its sky (one turned away, lighting
+/// nothing), two point lights and a spot light; the camera between them
+/// and the floor, looking down, sees no light. Every light path reaches the
+/// camera through the floor alone.
 fn scene() -> Scene {
-    let mut text = String::from(
-        r#"
-        [camera]
-        eye = [0, 0.6, 0]
-        look_at = [0, 0, 0]
-        up = [0, 0, -1]
-        fov = 100
-        [render]
-        max_depth = 3
-        [materials.floor]
-        diffuse = 0.7
-        [[quad]]
-        center = [0, 0, 0]
-        u = [6, 0, 0]
-        v = [0, 0, -6]
-        material = "floor"
-        [[point_light]]
-        position = [0.4, 0.8, 0.3]
-        power = 2
-        [[point_light]]
-        position = [-0.9, 1.5, -0.2]
-        power = 6
-        [[spot_light]]
-        position = [0.2, 1.2, -0.6]
-        direction = [0.3, -1, 0.2]
-        cone_angle = 35
-        power = 5
-        "#,
+    let mut lights = String::from(
+        "[[point_light]]\nposition = [0.4, 0.8, 0.3]\npower = 2\n\
+         [[point_light]]\nposition = [-0.9, 1.5, -0.2]\npower = 6\n\
+         [[spot_light]]\nposition = [0.2, 1.2, -0.6]\ndirection = [0.3, -1, 0.2]\ncone_angle = 35\npower = 5\n",
     );
     for i in 0..36 {
         let (x, z) = ((i % 6) as f32 * 0.5 - 1.25, (i / 6) as f32 * 0.5 - 1.25);
         let (size, height, power) =
             (0.2 + 0.05 * (i % 5) as f32, 0.9 + 0.1 * (i % 3) as f32, 1.0 + (i % 7) as f32);
-        // u x v = x x z points down, but for the last, which faces up.
-        let v = if i == 35 { -size } else { size };
-        text += &format!(
-            "[[area_light]]\ncenter = [{x}, {height}, {z}]\nu = [{size}, 0, 0]\nv = [0, 0, {v}]\npower = {power}\n"
-        );
+        // The last faces up.
+        lights += &area_light([x, height, z], size, if i == 35 { -size } else { size }, power);
     }
-    Scene::from_toml(&text, Path::new("many-lights.toml")).unwrap()
+    floor_under(0.6, 100.0, &lights)
 }
 
 /// The mean of the image `integrator` renders at 32 x 32 with `samples`.
@@ -89,21 +82,13 @@ fn drawing_among_many_lights_keeps_the_image_unbiased() {
 /// often as not, so that the weights of next-event estimation against
 /// BSDF sampling decide much of the image.
 fn close_lights() -> Scene {
-    let mut text = String::from(
-        "[camera]\neye = [0, 0.25, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, -1]\nfov = 100\n\
-         [render]\nmax_depth = 3\n[materials.floor]\ndiffuse = 0.7\n\
-         [[quad]]\ncenter = [0, 0, 0]\nu = [6, 0, 0]\nv = [0, 0, -6]\nmaterial = \"floor\"\n\
-         [[point_light]]\nposition = [0.4, 0.8, 0.3]\npower = 2\n",
-    );
+    let mut lights = String::from("[[point_light]]\nposition = [0.4, 0.8, 0.3]\npower = 2\n");
     for i in 0..64 {
         let (x, z, height) =
             ((i % 8) as f32 * 0.4 - 1.4, (i / 8) as f32 * 0.4 - 1.4, 0.45 + 0.05 * (i % 3) as f32);
-        text += &format!(
-            "[[area_light]]\ncenter = [{x}, {height}, {z}]\nu = [0.3, 0, 0]\nv = [0, 0, 0.3]\npower = {}\n",
-            1 + i % 7
-        );
+        lights += &area_light([x, height, z], 0.3, 0.3, (1 + i % 7) as f32);
     }
-    Scene::from_toml(&text, Path::new("close-lights.toml")).unwrap()
+    floor_under(0.25, 100.0, &lights)
 }
 
 /// BDPT and VCM count the draw among many lights in their weights: next-event
@@ -152,22 +137,15 @@ fn a_point_draws_a_few_of_many_lights_and_samples_each_of_a_few() {
     }
     // Turned away from the floor but for two, the area lights leave five
     // lights that reach it: each takes its samples, as with few lights.
-    let mut text = String::from(
-        "[camera]\neye = [0, 0.6, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, -1]\nfov = 60\n\
-         [materials.floor]\ndiffuse = 0.7\n\
-         [[quad]]\ncenter = [0, 0, 0]\nu = [6, 0, 0]\nv = [0, 0, -6]\nmaterial = \"floor\"\n\
-         [[point_light]]\nposition = [0.4, 0.8, 0.3]\npower = 2\n\
+    let mut lights = String::from(
+        "[[point_light]]\nposition = [0.4, 0.8, 0.3]\npower = 2\n\
          [[point_light]]\nposition = [-0.4, 0.8, 0.3]\npower = 2\n\
          [[point_light]]\nposition = [0, 0.8, -0.3]\npower = 2\n",
     );
     for i in 0..12 {
-        let v = if i < 2 { 0.2 } else { -0.2 };
-        text += &format!(
-            "[[area_light]]\ncenter = [{}, 1, 0]\nu = [0.2, 0, 0]\nv = [0, 0, {v}]\npower = 1\n",
-            i as f32 * 0.3 - 1.6
-        );
+        lights += &area_light([i as f32 * 0.3 - 1.6, 1.0, 0.0], 0.2, if i < 2 { 0.2 } else { -0.2 }, 1.0);
     }
-    let scene = Scene::from_toml(&text, Path::new("turned-away.toml")).unwrap();
+    let scene = floor_under(0.6, 60.0, &lights);
     assert!(scene.lights.len() > EVERY_LIGHT_UP_TO);
     assert_eq!(shadow_rays_a_pixel(&scene, 3), (2 * 3 + 3) as f64);
 }

@@ -262,23 +262,24 @@ impl<'l> LightChoice<'l> {
         draws as f32 * share
     }
 
+    /// Light `i`'s share of the total reach.
+    fn share(&self, i: usize) -> f32 {
+        self.reach[i] / self.total
+    }
+
     /// The density of the light-sampling strategy at a point of `light`
     /// (one of `lights`), against its own [`Light::pdf_solid_angle`], under
     /// multiple importance sampling: the draws expected to pick it at `p`
-    /// (one, where every light that reaches `p` takes a sample). For the
-    /// path tracer's weight where a path meets a light.
+    /// (one, where every light that reaches `p` takes a sample, as
+    /// [`LightSamples`] decides). For the weights where a path meets a
+    /// light, or a light subpath leaves one.
     #[inline]
     pub fn mis_factor(lights: &[Light], light: &Light, p: Vec3) -> f32 {
-        if lights.len() <= EVERY_LIGHT_UP_TO {
-            return 1.0;
-        }
-        let choice = LightChoice::at(lights, p);
+        let plan = LightSamples::at(lights, p, LightSampling::MultipleImportance);
+        let Some((choice, draws)) = plan.draws() else { return 1.0 };
         match lights.iter().position(|l| std::ptr::eq(l, light)) {
-            Some(index) if choice.reaching > EVERY_LIGHT_UP_TO => {
-                let draws = choice.draws(LightSampling::MultipleImportance);
-                choice.expected(draws, choice.reach[index] / choice.total)
-            }
-            _ => 1.0,
+            Some(index) => choice.expected(draws, choice.share(index)),
+            None => 1.0,
         }
     }
 
@@ -310,7 +311,7 @@ impl Walk<'_, '_> {
         loop {
             if let Some(i) = self.current {
                 if target < self.end || self.next == c.lights.len() {
-                    return Some((i, c.reach[i] / c.total));
+                    return Some((i, c.share(i)));
                 }
             } else if self.next == c.lights.len() {
                 return None;
