@@ -13,7 +13,8 @@ use crate::numeric;
 pub struct Mesh {
     /// Where the mesh came from, for messages (`"sphere #2"`, `"bunny.obj"`).
     pub name: String,
-    /// Vertex positions, shared between triangles.
+    /// Vertex positions, shared between triangles. Move them only with
+    /// [`Mesh::place`], which keeps the triangles' normals with them.
     pub positions: Vec<Vec3>,
     /// Unit normal per vertex (same length as `positions`).
     pub normals: Vec<Vec3>,
@@ -21,7 +22,17 @@ pub struct Mesh {
     pub indices: Vec<[u32; 3]>,
     /// Index into the scene's materials.
     pub material: usize,
+    /// Each triangle's unit normal, [`Mesh::face_normal`] worked out once,
+    /// for meshes of up to [`FACE_NORMALS_UP_TO`] triangles (empty for larger).
+    face_normals: Vec<Vec3>,
 }
+
+/// Meshes of up to this many triangles keep each triangle's normal rather
+/// than working it out (in `f64`) at every hit: 3-4% of a render's time on
+/// the teapot and the Cornell box (BENCHMARKS.md, issue 17). It costs 12
+/// bytes a triangle, half again the mesh's own 24; larger meshes, whose
+/// memory is measured against a goal, work it out as before.
+pub const FACE_NORMALS_UP_TO: usize = 4_000_000;
 
 impl Mesh {
     /// A mesh from positions and triangles. Triangles with zero area are
@@ -43,7 +54,16 @@ impl Mesh {
             Some(n) => n.into_iter().map(|n| numeric::unit(n).unwrap_or(Vec3::ZERO)).collect(),
             None => vertex_normals(&positions, &indices),
         };
-        Mesh { name: name.into(), positions: pad_for_embree(positions), normals, indices, material }
+        let mut mesh = Mesh {
+            name: name.into(),
+            positions: pad_for_embree(positions),
+            normals,
+            indices,
+            material,
+            face_normals: Vec::new(),
+        };
+        mesh.keep_face_normals();
+        mesh
     }
 
     /// The triangles as an intersector reads them.
@@ -51,11 +71,13 @@ impl Mesh {
         TriangleView::padded(&self.positions, &self.indices)
     }
 
-    /// Bytes of the mesh's own arrays: positions, normals and indices.
+    /// Bytes of the mesh's own arrays: positions, normals, indices and the
+    /// triangles' normals where it keeps them.
     pub fn bytes(&self) -> usize {
         std::mem::size_of_val(self.positions.as_slice())
             + std::mem::size_of_val(self.normals.as_slice())
             + std::mem::size_of_val(self.indices.as_slice())
+            + std::mem::size_of_val(self.face_normals.as_slice())
     }
 
     /// The bounding box of the vertices.
@@ -79,8 +101,28 @@ impl Mesh {
     }
 
     /// Geometric normal of triangle `prim` (unit length, counter-clockwise side).
+    #[inline]
     pub fn face_normal(&self, prim: u32) -> Vec3 {
+        match self.face_normals.get(prim as usize) {
+            Some(&n) => n,
+            None => self.work_out_face_normal(prim),
+        }
+    }
+
+    fn work_out_face_normal(&self, prim: u32) -> Vec3 {
         face_normal(&self.positions, self.indices[prim as usize]).unwrap_or(Vec3::Z)
+    }
+
+    /// Works out every triangle's normal once, if the mesh is small enough
+    /// to keep them ([`FACE_NORMALS_UP_TO`]), in parallel.
+    fn keep_face_normals(&mut self) {
+        self.face_normals = Vec::new();
+        if self.indices.len() <= FACE_NORMALS_UP_TO {
+            self.face_normals = (0..self.indices.len() as u32)
+                .into_par_iter()
+                .map(|prim| self.work_out_face_normal(prim))
+                .collect();
+        }
     }
 
     /// The smooth shading normal at barycentrics `(u, v)` of triangle `prim`:
@@ -115,6 +157,7 @@ impl Mesh {
                 t.swap(1, 2);
             }
         }
+        self.keep_face_normals();
     }
 }
 
@@ -288,5 +331,16 @@ mod tests {
         // Normals still +z, and the winding agrees with them.
         assert!(m.face_normal(0).abs_diff_eq(Vec3::Z, 1e-6));
         assert!(m.normals[0].abs_diff_eq(Vec3::Z, 1e-6));
+    }
+
+    #[test]
+    fn kept_triangle_normals_are_the_ones_worked_out_after_placing() {
+        let mut m = crate::scene::shapes::sphere("s", Vec3::ZERO, 1.0, 2, 0);
+        let tilt = Mat4::from_rotation_y(0.3) * Mat4::from_scale(Vec3::new(-2.0, 0.5, 1.0));
+        m.place(&tilt.as_dmat4(), DVec3::new(1e3, 0.0, 0.0));
+        assert_eq!(m.face_normals.len(), m.indices.len());
+        for prim in 0..m.indices.len() as u32 {
+            assert_eq!(m.face_normal(prim).to_array(), m.work_out_face_normal(prim).to_array());
+        }
     }
 }
