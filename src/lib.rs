@@ -7,7 +7,8 @@
 //! - [`config`]: [`RenderConfig`], every setting and its limits.
 //! - [`material`], [`light`], [`optics`], [`sampling`]: what surfaces and
 //!   lights are, the Fresnel/Snell formulas, random numbers;
-//!   [`light_tree`]: which area lights a ray crosses, among many.
+//!   [`light_tree`]: which area lights a ray crosses, among many;
+//!   [`light_choice_tree`]: which to draw at a point, among very many.
 //! - [`scene`]: the scene file, camera, meshes, built-in shapes, the teapot, OBJ, PLY.
 //! - [`query`]: the first interaction along a ray (surface or light) and ray spawning.
 //! - [`bsdf`]: a material at a surface point: evaluate, sample, pdf; Russian roulette.
@@ -42,6 +43,7 @@ pub mod film;
 pub mod hash;
 pub mod integrator;
 pub mod light;
+pub mod light_choice_tree;
 pub mod light_tree;
 pub mod material;
 pub mod memory;

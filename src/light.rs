@@ -251,29 +251,48 @@ impl Light {
     /// spot's cone), so that every light that could light `p` may be
     /// chosen.
     pub fn reach(&self, p: Vec3) -> f32 {
-        let (power, d2) = match *self {
-            Light::Point { position, power } => (
-                power.element_sum() as f64 / (4.0 * std::f64::consts::PI),
-                (p - position).as_dvec3().length_squared(),
-            ),
+        let strength = self.reach_strength();
+        let d2 = match *self {
+            Light::Point { position, .. } => (p - position).as_dvec3().length_squared(),
             Light::Spot { position, .. } => {
                 let to_p = (p - position).as_dvec3();
                 let Some((_, intensity)) = self.intensity((to_p / to_p.length()).as_vec3()) else {
                     return 0.0;
                 };
-                (intensity.element_sum() as f64, to_p.length_squared())
+                // The intensity that way, over the peak.
+                return reach_over(intensity.element_sum() as f64, to_p.length_squared());
             }
-            Light::Area { center, power, face, .. } => {
+            Light::Area { center, face, .. } => {
                 let to_p = (p - center).as_dvec3();
                 if face.normal.as_dvec3().dot(to_p) <= 0.0 {
                     return 0.0;
                 }
                 let half_diagonal2 = 0.25 * (face.length2.0 + face.length2.1 + 2.0 * face.skew.abs());
-                (power.element_sum() as f64 / std::f64::consts::PI, to_p.length_squared().max(half_diagonal2))
+                to_p.length_squared().max(half_diagonal2)
             }
         };
-        // Within the range of f32, and finite at the light itself.
-        (power / d2.max(f64::MIN_POSITIVE)).clamp(0.0, 1e30) as f32
+        reach_over(strength, d2)
+    }
+
+    /// The most [`Light::reach`] has over the squared distance: power over
+    /// pi for a panel, over 4 pi for a point light, a spot's peak intensity
+    /// (each summed over the channels).
+    pub fn reach_strength(&self) -> f64 {
+        match *self {
+            Light::Point { power, .. } => power.element_sum() as f64 / (4.0 * std::f64::consts::PI),
+            Light::Spot { power, cone_angle, falloff_start, .. } => {
+                spot_peak_intensity(power, cone_angle, falloff_start).element_sum() as f64
+            }
+            Light::Area { power, .. } => power.element_sum() as f64 / std::f64::consts::PI,
+        }
+    }
+
+    /// The unit normal of a panel's emitting side (zero for point and spot lights).
+    pub fn facing(&self) -> Vec3 {
+        match self {
+            Light::Area { face, .. } => face.normal,
+            _ => Vec3::ZERO,
+        }
     }
 
     /// Solid-angle density, seen from `from`, with which
@@ -350,6 +369,12 @@ pub enum Side {
 /// smoothstep in the cosine between (as pbrt-v4 does). Cosines are handled
 /// as `1 - cos`, from the sine, so a cone of 0.01 degrees keeps its shape
 /// where `f32` cosines all round to 1.
+/// [`Light::reach`] from its numerator and squared distance: within the
+/// range of `f32`, and finite at the light itself.
+fn reach_over(strength: f64, d2: f64) -> f32 {
+    (strength / d2.max(f64::MIN_POSITIVE)).clamp(0.0, 1e30) as f32
+}
+
 fn spot_falloff(axis: Vec3, dir: Vec3, cone_angle: f32, falloff_start: f32) -> f32 {
     let one_minus_cos = numeric::one_minus_cos_between(axis, dir);
     let (total, start) = (numeric::one_minus_cos(cone_angle), numeric::one_minus_cos(falloff_start));

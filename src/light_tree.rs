@@ -19,6 +19,7 @@ use glam::Vec3;
 use crate::accel::Ray;
 use crate::bounds::Bounds;
 use crate::light::{Light, Side};
+use crate::light_choice_tree::{ChoiceTree, TABLE_UP_TO};
 
 /// Up to this many area lights, a ray tests each (the tree would not pay).
 const SCAN_UP_TO: usize = 4;
@@ -34,6 +35,9 @@ pub struct Lights {
     all: Vec<Light>,
     /// Over the area lights, when there are more than [`SCAN_UP_TO`].
     tree: Option<PanelTree>,
+    /// For choosing among the lights at a point, when there are more than
+    /// [`TABLE_UP_TO`].
+    choice: Option<ChoiceTree>,
 }
 
 impl Lights {
@@ -41,7 +45,13 @@ impl Lights {
     pub fn new(all: Vec<Light>) -> Lights {
         let panels: Vec<u32> = (0..all.len() as u32).filter(|&i| !all[i as usize].is_delta()).collect();
         let tree = (panels.len() > SCAN_UP_TO).then(|| PanelTree::new(&all, panels));
-        Lights { all, tree }
+        let choice = (all.len() > TABLE_UP_TO).then(|| ChoiceTree::new(&all));
+        Lights { all, tree, choice }
+    }
+
+    /// The tree for choosing among many lights, if there are that many.
+    pub fn choice_tree(&self) -> Option<&ChoiceTree> {
+        self.choice.as_ref()
     }
 
     /// The nearest area light whose panel `ray` crosses before `ray.t_max`:

@@ -12,6 +12,7 @@ use caustix::accel::{build, Backend};
 use caustix::config::IntegratorKind;
 use caustix::film::Aov;
 use caustix::integrator::direct::EVERY_LIGHT_UP_TO;
+use caustix::light_choice_tree::TABLE_UP_TO;
 use caustix::scene::Scene;
 use caustix::RenderConfig;
 
@@ -63,15 +64,58 @@ fn mean(scene: &Scene, integrator: IntegratorKind, samples: u32) -> f64 {
     image.pixels.iter().map(|p| p.element_sum() as f64).sum::<f64>() / image.pixels.len() as f64
 }
 
+/// A point light, five spots and a grid of 324 small area lights, some
+/// facing up, at a few heights over the floor: more than a point weighs
+/// one by one, so it draws them down the scene's tree.
+fn very_many() -> Scene {
+    let mut lights = String::from(
+        "[[point_light]]\nposition = [0.4, 0.8, 0.3]\npower = 2\n\
+         [[spot_light]]\nposition = [0.2, 1.2, -0.6]\ndirection = [0.3, -1, 0.2]\ncone_angle = 35\npower = 5\n",
+    );
+    for i in 0..4 {
+        let x = i as f32 * 0.6 - 0.9;
+        lights += &format!(
+            "[[spot_light]]\nposition = [{x}, 1.4, 0.5]\ndirection = [0, -1, -0.4]\ncone_angle = {}\npower = 3\n",
+            10 + 15 * i
+        );
+    }
+    for i in 0..324 {
+        let (x, z) = ((i % 18) as f32 * 0.16 - 1.36, (i / 18) as f32 * 0.16 - 1.36);
+        let v = if i % 11 == 0 { -0.06 } else { 0.06 };
+        lights += &area_light([x, 1.3 + 0.05 * (i % 4) as f32, z], 0.06, v, 0.1 + 0.05 * (i % 5) as f32);
+    }
+    floor_under(0.6, 100.0, &lights)
+}
+
 #[test]
 fn drawing_among_many_lights_keeps_the_image_unbiased() {
     let scene = scene();
     assert!(scene.lights.len() > EVERY_LIGHT_UP_TO);
-    let reference = mean(&scene, IntegratorKind::Light, 4096);
+    unbiased(&scene);
+}
+
+#[test]
+fn drawing_down_the_tree_keeps_the_image_unbiased() {
+    let scene = very_many();
+    assert!(scene.lights.len() > TABLE_UP_TO);
+    unbiased(&scene);
+    let reference = mean(&scene, IntegratorKind::Path, 64);
+    for integrator in [IntegratorKind::Bdpt, IntegratorKind::Vcm] {
+        let m = mean(&scene, integrator, 64);
+        eprintln!("{integrator:?}: mean {m:.5} against the path tracer's {reference:.5}");
+        assert!((m / reference - 1.0).abs() < 0.0015, "{integrator:?}: {m} against {reference}");
+    }
+    // Every point of the floor draws EVERY_LIGHT_UP_TO a light sample.
+    assert_eq!(shadow_rays_a_pixel(&scene, 2), (EVERY_LIGHT_UP_TO * 2) as f64);
+}
+
+/// Whitted, the path tracer and SPPM agree with the light tracer on `scene`.
+fn unbiased(scene: &Scene) {
+    let reference = mean(scene, IntegratorKind::Light, 4096);
     for (integrator, samples) in
         [(IntegratorKind::Whitted, 16), (IntegratorKind::Path, 64), (IntegratorKind::Sppm, 16)]
     {
-        let m = mean(&scene, integrator, samples);
+        let m = mean(scene, integrator, samples);
         eprintln!("{integrator:?}: mean {m:.5} against the light tracer's {reference:.5}");
         assert!((m / reference - 1.0).abs() < 0.005, "{integrator:?}: {m} against {reference}");
     }

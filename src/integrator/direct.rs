@@ -2,8 +2,11 @@
 //! one estimator of light arriving straight from the lights, shared by all
 //! integrators. Up to [`EVERY_LIGHT_UP_TO`] lights, a point samples every
 //! light; with more, it draws that many among them, each in proportion to
-//! what it could send there ([`LightChoice`]). A shadow ray to each of 256
-//! lights made 36.8M rays for 65,536 camera samples (BENCHMARKS.md, issue 17).
+//! what it could send there ([`LightChoice`]); above
+//! [`TABLE_UP_TO`](crate::light_choice_tree::TABLE_UP_TO) lights, down a
+//! tree rather than weighing each ([`ChoiceTree`]). A shadow ray to each of
+//! 256 lights made 36.8M rays for 65,536 camera samples (BENCHMARKS.md,
+//! issue 17).
 
 use glam::{Vec2, Vec3};
 
@@ -11,6 +14,8 @@ use crate::accel::Ray;
 
 use crate::bsdf::Bsdf;
 use crate::light::Light;
+use crate::light_choice_tree::ChoiceTree;
+use crate::light_tree::Lights;
 use crate::query::{RayCount, SceneQuery, SurfacePoint};
 use crate::sampling::{stratified, Rng};
 
@@ -123,19 +128,33 @@ fn shadow_ray(
 /// lights, or where no more than that many reach the point, each light
 /// (that reaches it) takes its samples, stratified over its area; where
 /// more reach it, the point draws `EVERY_LIGHT_UP_TO` times a light's
-/// samples among them ([`LightChoice`]).
+/// samples among them ([`LightChoice`]). Above
+/// [`TABLE_UP_TO`](crate::light_choice_tree::TABLE_UP_TO) lights, the
+/// point draws whenever any light may reach it, down the scene's
+/// [`ChoiceTree`], without weighing each light.
 pub struct LightSamples<'l> {
     lights: &'l [Light],
     sampling: LightSampling,
     /// With many lights: how the point chooses among them.
-    choice: Option<LightChoice<'l>>,
+    choice: Option<Choice<'l>>,
+}
+
+/// How a point chooses among many lights.
+enum Choice<'l> {
+    /// Each light weighed at the point.
+    Table(LightChoice<'l>),
+    /// Drawn down the tree at the point.
+    Tree(&'l ChoiceTree, Vec3),
 }
 
 impl<'l> LightSamples<'l> {
     /// The samples at `p` of `lights` under `sampling` (one a light under
     /// multiple importance sampling, and for point and spot lights).
-    pub fn at(lights: &'l [Light], p: Vec3, sampling: LightSampling) -> Self {
-        let choice = (lights.len() > EVERY_LIGHT_UP_TO).then(|| LightChoice::at(lights, p));
+    pub fn at(lights: &'l Lights, p: Vec3, sampling: LightSampling) -> Self {
+        let choice = (lights.len() > EVERY_LIGHT_UP_TO).then(|| match lights.choice_tree() {
+            Some(tree) => Choice::Tree(tree, p),
+            None => Choice::Table(LightChoice::at(lights, p)),
+        });
         LightSamples { lights, sampling, choice }
     }
 
@@ -147,21 +166,37 @@ impl<'l> LightSamples<'l> {
         }
     }
 
-    /// Whether the point draws among the lights.
-    fn draws(&self) -> Option<(&LightChoice<'l>, u32)> {
-        self.choice.as_ref().filter(|c| c.reaching > EVERY_LIGHT_UP_TO).map(|c| (c, c.draws(self.sampling)))
+    /// Whether the point draws among the lights, and how many times.
+    fn draws(&self) -> Option<(&Choice<'l>, u32)> {
+        let choice = self.choice.as_ref()?;
+        let draws = match choice {
+            Choice::Table(table) => table.reaching > EVERY_LIGHT_UP_TO,
+            Choice::Tree(tree, p) => tree.reaches(self.lights, *p),
+        };
+        let per_light = match self.sampling {
+            LightSampling::Stratified { samples } => samples,
+            LightSampling::MultipleImportance => 1,
+        };
+        draws.then_some((choice, EVERY_LIGHT_UP_TO as u32 * per_light))
     }
 
-    /// Whether light `i` may reach the point (with few lights, each may).
+    /// Whether light `i` may reach the point when each light takes its own
+    /// samples (with few lights, each may; with the tree, where the point
+    /// does not draw, none does).
     fn reaches(&self, i: usize) -> bool {
-        self.choice.as_ref().is_none_or(|c| c.reach[i] > 0.0)
+        match &self.choice {
+            None => true,
+            Some(Choice::Table(table)) => table.reach[i] > 0.0,
+            Some(Choice::Tree(..)) => false,
+        }
     }
 
     /// How many samples the point takes, at most.
     pub fn most(&self) -> u32 {
-        match self.draws() {
-            Some((_, draws)) => draws,
-            None => {
+        match (self.draws(), &self.choice) {
+            (Some((_, draws)), _) => draws,
+            (None, Some(Choice::Tree(..))) => 0,
+            (None, _) => {
                 (0..self.lights.len()).filter(|&i| self.reaches(i)).map(|i| self.of(&self.lights[i])).sum()
             }
         }
@@ -175,7 +210,8 @@ impl<'l> LightSamples<'l> {
     /// own samples).
     pub fn take<'p, 'r>(&'p self, rng: &'r mut Rng) -> Taken<'p, 'l, 'r> {
         let state = match self.draws() {
-            Some((choice, draws)) => State::Drawing { walk: choice.walk(), draws, i: 0 },
+            Some((Choice::Table(table), draws)) => State::Drawing { walk: table.walk(), draws, i: 0 },
+            Some((&Choice::Tree(tree, p), draws)) => State::Descending { tree, p, draws, i: 0 },
             None => State::Each { light: 0, i: 0 },
         };
         Taken { plan: self, rng, state }
@@ -192,6 +228,8 @@ pub struct Taken<'p, 'l, 'r> {
 enum State<'p, 'l> {
     /// Draw `i` of `draws` among many lights.
     Drawing { walk: Walk<'p, 'l>, draws: u32, i: u32 },
+    /// Draw `i` of `draws` down the tree at `p`.
+    Descending { tree: &'l ChoiceTree, p: Vec3, draws: u32, i: u32 },
     /// Sample `i` of light `light`, each light taking its own.
     Each { light: usize, i: u32 },
 }
@@ -213,6 +251,19 @@ impl<'l> Iterator for Taken<'_, 'l, '_> {
                 *i += 1;
                 Some((index, &plan.lights[index], self.rng.uniform2(), expected, expected))
             }
+            State::Descending { tree, p, draws, i } => loop {
+                if *i == *draws {
+                    return None;
+                }
+                // Stratified over the tree's choices; a draw that finds no
+                // light reaching the point adds nothing.
+                let u = (*i as f32 + self.rng.uniform()) / *draws as f32;
+                *i += 1;
+                if let Some((index, chance)) = tree.pick(plan.lights, *p, u) {
+                    let expected = *draws as f32 * chance;
+                    return Some((index, &plan.lights[index], self.rng.uniform2(), expected, expected));
+                }
+            },
             State::Each { light, i } => loop {
                 let l = plan.lights.get(*light)?;
                 let n = plan.of(l);
@@ -248,15 +299,6 @@ impl<'l> LightChoice<'l> {
         LightChoice { lights, reach, total, reaching }
     }
 
-    /// How many lights a point draws under `sampling`.
-    fn draws(&self, sampling: LightSampling) -> u32 {
-        let per_light = match sampling {
-            LightSampling::Stratified { samples } => samples,
-            LightSampling::MultipleImportance => 1,
-        };
-        EVERY_LIGHT_UP_TO as u32 * per_light
-    }
-
     /// How many of `draws` draws are expected to pick a light of `share`.
     fn expected(&self, draws: u32, share: f32) -> f32 {
         draws as f32 * share
@@ -274,12 +316,13 @@ impl<'l> LightChoice<'l> {
     /// [`LightSamples`] decides). For the weights where a path meets a
     /// light, or a light subpath leaves one.
     #[inline]
-    pub fn mis_factor(lights: &[Light], light: &Light, p: Vec3) -> f32 {
+    pub fn mis_factor(lights: &Lights, light: &Light, p: Vec3) -> f32 {
         let plan = LightSamples::at(lights, p, LightSampling::MultipleImportance);
         let Some((choice, draws)) = plan.draws() else { return 1.0 };
-        match lights.iter().position(|l| std::ptr::eq(l, light)) {
-            Some(index) => choice.expected(draws, choice.share(index)),
-            None => 1.0,
+        let Some(index) = index_of(lights, light) else { return 1.0 };
+        match choice {
+            Choice::Table(table) => table.expected(draws, table.share(index)),
+            Choice::Tree(tree, p) => draws as f32 * tree.chance(lights, *p, index),
         }
     }
 
@@ -287,6 +330,14 @@ impl<'l> LightChoice<'l> {
     fn walk(&self) -> Walk<'_, 'l> {
         Walk { choice: self, next: 0, end: 0.0, current: None }
     }
+}
+
+/// The index of `light` in `lights`, if it is one of them (from its address:
+/// a search would weigh as much as every light again).
+fn index_of(lights: &[Light], light: &Light) -> Option<usize> {
+    let offset = (light as *const Light as usize).wrapping_sub(lights.as_ptr() as usize);
+    let index = offset / std::mem::size_of::<Light>();
+    lights.get(index).filter(|l| std::ptr::eq(*l, light)).map(|_| index)
 }
 
 /// Lights picked in turn by increasing uniforms: each light holds the part
