@@ -57,32 +57,6 @@ struct Reach {
     beyond: f64,
 }
 
-/// What [`Reach::at`] reads of a node's directions, in sines and cosines
-/// (an angle's sum and difference without trigonometric functions).
-#[derive(Debug, Clone, Copy)]
-struct Facing {
-    axis: DVec3,
-    /// Of the spread.
-    cos_spread: f64,
-    sin_spread: f64,
-    /// Of how far beyond, less the margin.
-    least_cos: f64,
-    /// Whether any direction can be turned away at all.
-    can_turn_away: bool,
-}
-
-impl Reach {
-    fn facing(&self) -> Facing {
-        Facing {
-            axis: self.axis,
-            cos_spread: self.spread.cos(),
-            sin_spread: self.spread.sin(),
-            least_cos: self.beyond.cos() - MARGIN,
-            can_turn_away: self.spread + self.beyond < std::f64::consts::PI,
-        }
-    }
-}
-
 impl Reach {
     fn of(light: &Light) -> Reach {
         let strength = light.reach_strength();
@@ -94,21 +68,32 @@ impl Reach {
                 spread: std::f64::consts::PI,
                 beyond: std::f64::consts::PI,
             },
-            Light::Spot { position, direction, cone_angle, .. } => Reach {
-                bounds: Bounds::of(&[position]),
-                strength,
-                axis: direction.as_dvec3().normalize_or(DVec3::Z),
-                spread: 0.0,
-                beyond: (cone_angle as f64).min(std::f64::consts::PI),
-            },
+            Light::Spot { position, direction, cone_angle, .. } => {
+                let (axis, spread) = match direction.as_dvec3().try_normalize() {
+                    Some(axis) => (axis, 0.0),
+                    None => (DVec3::Z, std::f64::consts::PI),
+                };
+                Reach {
+                    bounds: Bounds::of(&[position]),
+                    strength,
+                    axis,
+                    spread,
+                    beyond: (cone_angle as f64).min(std::f64::consts::PI),
+                }
+            }
             Light::Area { center, u, v, .. } => {
                 let (hu, hv) = (0.5 * u, 0.5 * v);
                 let corners = [center - hu - hv, center + hu - hv, center + hu + hv, center - hu + hv];
+                // A panel without a normal faces nowhere in particular.
+                let (axis, spread) = match light.facing().as_dvec3().try_normalize() {
+                    Some(normal) => (normal, 0.0),
+                    None => (DVec3::Z, std::f64::consts::PI),
+                };
                 Reach {
                     bounds: Bounds::of(&corners),
                     strength,
-                    axis: light.facing().as_dvec3(),
-                    spread: 0.0,
+                    axis,
+                    spread,
                     beyond: std::f64::consts::FRAC_PI_2,
                 }
             }
@@ -127,14 +112,23 @@ impl Reach {
     }
 }
 
-/// A node's bound, as [`Bound::at`] reads it.
+/// A node's [`Reach`] as [`Bound::at`] reads it: the box as a centre and
+/// radius, the angles as sines and cosines (so that their sums and
+/// differences take no trigonometric functions: those were half of a
+/// render's time at 1,024 lights).
 #[derive(Debug, Clone, Copy)]
 struct Bound {
     centre: DVec3,
     /// Half the box's diagonal, squared.
     radius2: f64,
     strength: f64,
-    facing: Facing,
+    axis: DVec3,
+    cos_spread: f64,
+    sin_spread: f64,
+    /// The cosine of how far beyond the lights send, less the margin.
+    least_cos: f64,
+    /// Whether any direction can be turned away at all.
+    can_turn_away: bool,
 }
 
 impl Bound {
@@ -144,7 +138,11 @@ impl Bound {
             centre: 0.5 * (lo + hi),
             radius2: 0.25 * (hi - lo).length_squared(),
             strength: reach.strength,
-            facing: reach.facing(),
+            axis: reach.axis,
+            cos_spread: reach.spread.cos(),
+            sin_spread: reach.spread.sin(),
+            least_cos: reach.beyond.cos() - MARGIN,
+            can_turn_away: reach.spread + reach.beyond < std::f64::consts::PI,
         }
     }
 
@@ -156,23 +154,25 @@ impl Bound {
     fn at(&self, p: Vec3) -> f64 {
         let to_p = p.as_dvec3() - self.centre;
         let d2 = to_p.length_squared();
-        let f = &self.facing;
-        if f.can_turn_away && d2 > self.radius2 {
+        if self.can_turn_away && d2 > self.radius2 {
             // The angle from the lights' axis to `p` as seen from the box's
             // centre (w), less the lights' spread (x), less what the box
             // subtends from `p` (the nearest): if that is still beyond what
             // they send, nothing reaches `p`. Each difference is clamped at 0.
-            let cos_w = (f.axis.dot(to_p) / d2.sqrt()).clamp(-1.0, 1.0);
+            let cos_w = (self.axis.dot(to_p) / d2.sqrt()).clamp(-1.0, 1.0);
             let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
-            let (cos_x, sin_x) = if cos_w >= f.cos_spread {
+            let (cos_x, sin_x) = if cos_w >= self.cos_spread {
                 (1.0, 0.0)
             } else {
-                (cos_w * f.cos_spread + sin_w * f.sin_spread, sin_w * f.cos_spread - cos_w * f.sin_spread)
+                (
+                    cos_w * self.cos_spread + sin_w * self.sin_spread,
+                    sin_w * self.cos_spread - cos_w * self.sin_spread,
+                )
             };
             let sin_b = (self.radius2 / d2).sqrt().min(1.0);
             let cos_b = (1.0 - sin_b * sin_b).max(0.0).sqrt();
             let cos_nearest = if cos_x >= cos_b { 1.0 } else { cos_x * cos_b + sin_x * sin_b };
-            if cos_nearest <= f.least_cos {
+            if cos_nearest <= self.least_cos {
                 return 0.0;
             }
         }
