@@ -259,7 +259,7 @@ impl Light {
                 let Some((_, intensity)) = self.intensity((to_p / to_p.length()).as_vec3()) else {
                     return 0.0;
                 };
-                // The intensity that way, over the peak.
+                // The intensity that way (the falloff in it), not the peak.
                 return reach_over(intensity.element_sum() as f64, to_p.length_squared());
             }
             Light::Area { center, face, .. } => {
@@ -364,17 +364,17 @@ pub enum Side {
     Back,
 }
 
-/// The smooth edge of a spot light with unit `axis`, towards the unit
-/// direction `dir`: 1 inside `falloff_start`, 0 outside `cone_angle`, and a
-/// smoothstep in the cosine between (as pbrt-v4 does). Cosines are handled
-/// as `1 - cos`, from the sine, so a cone of 0.01 degrees keeps its shape
-/// where `f32` cosines all round to 1.
 /// [`Light::reach`] from its numerator and squared distance: within the
 /// range of `f32`, and finite at the light itself.
 fn reach_over(strength: f64, d2: f64) -> f32 {
     (strength / d2.max(f64::MIN_POSITIVE)).clamp(0.0, 1e30) as f32
 }
 
+/// The smooth edge of a spot light with unit `axis`, towards the unit
+/// direction `dir`: 1 inside `falloff_start`, 0 outside `cone_angle`, and a
+/// smoothstep in the cosine between (as pbrt-v4 does). Cosines are handled
+/// as `1 - cos`, from the sine, so a cone of 0.01 degrees keeps its shape
+/// where `f32` cosines all round to 1.
 fn spot_falloff(axis: Vec3, dir: Vec3, cone_angle: f32, falloff_start: f32) -> f32 {
     let one_minus_cos = numeric::one_minus_cos_between(axis, dir);
     let (total, start) = (numeric::one_minus_cos(cone_angle), numeric::one_minus_cos(falloff_start));

@@ -195,6 +195,8 @@ impl<'l> LightSamples<'l> {
     pub fn most(&self) -> u32 {
         match (self.draws(), &self.choice) {
             (Some((_, draws)), _) => draws,
+            // With the tree, a point that does not draw has no light
+            // reaching it (and asking each light would weigh them all).
             (None, Some(Choice::Tree(..))) => 0,
             (None, _) => {
                 (0..self.lights.len()).filter(|&i| self.reaches(i)).map(|i| self.of(&self.lights[i])).sum()
