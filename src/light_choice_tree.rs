@@ -305,7 +305,8 @@ impl ChoiceTree {
     /// of whose lights may reach `p`. Stratified `u` stay stratified: at
     /// each node `u` is rescaled within the child's part.
     pub fn pick(&self, lights: &[Light], p: Vec3, u: f32) -> Option<(usize, f32)> {
-        let mut u = u as f64;
+        // A stratified number that rounded up to 1 counts as just below it.
+        let mut u = (u as f64).min(1.0 - f64::EPSILON);
         let mut chance = 1.0f64;
         let mut node = 0u32;
         loop {
@@ -413,6 +414,19 @@ mod tests {
             assert!((chances.iter().sum::<f32>() - 1.0).abs() < 1e-5);
             assert!(tree.pick(&lights, p, 0.999_999_9).is_some());
         }
+    }
+
+    #[test]
+    fn a_number_rounded_up_to_one_still_picks_a_light() {
+        // The first panel faces the point, the second (the root's second
+        // child, further along x) away from it: all the chance is the first's.
+        let down = Light::area(Vec3::new(0.0, 1.0, 0.0), Vec3::X * 0.2, Vec3::Z * 0.2, Vec3::ONE);
+        let up = Light::area(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 0.2, Vec3::X * 0.2, Vec3::ONE);
+        let lights = [down, up];
+        let p = Vec3::new(0.5, 0.0, 0.0);
+        let tree = ChoiceTree::new(&lights);
+        assert_eq!(tree.chance(&lights, p, 1), 0.0);
+        assert_eq!(tree.pick(&lights, p, 1.0), Some((0, 1.0)));
     }
 
     #[test]
