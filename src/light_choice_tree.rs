@@ -216,22 +216,18 @@ fn union_cones((a, ta): (DVec3, f64), (b, tb): (DVec3, f64)) -> (DVec3, f64) {
 #[derive(Debug, Clone)]
 pub struct ChoiceTree {
     nodes: Vec<Node>,
-    /// Each node's parent (the root's is itself).
+    /// Each node's parent (the root's is itself: node 0).
     parents: Vec<u32>,
     /// Each light's leaf.
     leaves: Vec<u32>,
 }
 
-#[derive(Debug, Clone)]
-struct Node {
-    bound: Bound,
-    kind: Kind,
-}
-
 #[derive(Debug, Clone, Copy)]
-enum Kind {
+enum Node {
+    /// One light, weighed by its own reach.
     Leaf { light: u32 },
-    Inner { children: [u32; 2] },
+    /// Two children, and the bound of all their lights.
+    Inner { children: [u32; 2], bound: Bound },
 }
 
 impl ChoiceTree {
@@ -254,16 +250,15 @@ impl ChoiceTree {
     /// centres along the widest axis of those centres.
     fn build(&mut self, reaches: &[Reach], order: &mut [u32], parent: u32) -> u32 {
         let index = self.nodes.len() as u32;
-        let parent = if index == 0 { 0 } else { parent };
+        self.parents.push(parent);
         if let [light] = *order {
-            self.nodes.push(Node { bound: Bound::new(&reaches[light as usize]), kind: Kind::Leaf { light } });
-            self.parents.push(parent);
+            self.nodes.push(Node::Leaf { light });
             self.leaves[light as usize] = index;
             return index;
         }
         let reach = order[1..].iter().fold(reaches[order[0] as usize], |r, &i| r.union(&reaches[i as usize]));
-        self.nodes.push(Node { bound: Bound::new(&reach), kind: Kind::Inner { children: [0, 0] } });
-        self.parents.push(parent);
+        let bound = Bound::new(&reach);
+        self.nodes.push(Node::Inner { children: [0, 0], bound });
         let centre = |i: &u32| {
             let b = reaches[*i as usize].bounds;
             0.5 * (b.min + b.max)
@@ -281,17 +276,16 @@ impl ChoiceTree {
         order.select_nth_unstable_by(half, |a, b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(b)));
         let (left, right) = order.split_at_mut(half);
         let children = [self.build(reaches, left, index), self.build(reaches, right, index)];
-        self.nodes[index as usize].kind = Kind::Inner { children };
+        self.nodes[index as usize] = Node::Inner { children, bound };
         index
     }
 
     /// What node `node` could send `p`: a light's own reach at a leaf, the
     /// bound above it (finite, not negative).
     fn weight(&self, lights: &[Light], node: u32, p: Vec3) -> f64 {
-        let node = &self.nodes[node as usize];
-        match node.kind {
-            Kind::Leaf { light } => lights[light as usize].reach(p) as f64,
-            Kind::Inner { .. } => node.bound.at(p),
+        match &self.nodes[node as usize] {
+            Node::Leaf { light } => lights[*light as usize].reach(p) as f64,
+            Node::Inner { bound, .. } => bound.at(p),
         }
     }
 
@@ -310,11 +304,13 @@ impl ChoiceTree {
         let mut chance = 1.0f64;
         let mut node = 0u32;
         loop {
-            match self.nodes[node as usize].kind {
-                Kind::Leaf { light } => {
-                    return (chance > 0.0).then_some((light as usize, chance as f32));
+            match self.nodes[node as usize] {
+                Node::Leaf { light } => {
+                    // (A chance too small for `f32` would divide by 0.)
+                    let chance = chance as f32;
+                    return (chance > 0.0).then_some((light as usize, chance));
                 }
-                Kind::Inner { children: [left, right] } => {
+                Node::Inner { children: [left, right], .. } => {
                     let (l, r) = (self.weight(lights, left, p), self.weight(lights, right, p));
                     if l + r <= 0.0 {
                         return None;
@@ -338,7 +334,7 @@ impl ChoiceTree {
         let mut chance = 1.0f64;
         while node != 0 {
             let parent = self.parents[node as usize];
-            let Kind::Inner { children: [left, right] } = self.nodes[parent as usize].kind else {
+            let Node::Inner { children: [left, right], .. } = self.nodes[parent as usize] else {
                 unreachable!("a parent is an inner node")
             };
             let (l, r) = (self.weight(lights, left, p), self.weight(lights, right, p));

@@ -1,6 +1,7 @@
 //! Scenes with more lights than a shading point samples one by one
 //! (`integrator::direct::EVERY_LIGHT_UP_TO`): each point draws some of them,
-//! in proportion to what each could send it, and the multiple importance
+//! in proportion to what each could send it (above
+//! `light_choice_tree::TABLE_UP_TO` lights, down a tree), and the multiple importance
 //! sampling of the path tracer, BDPT and VCM counts it. The images stay
 //! unbiased: they agree with the light tracer, which leaves from the
 //! lights by their power and never draws among them at a point, and BDPT
@@ -99,12 +100,7 @@ fn drawing_down_the_tree_keeps_the_image_unbiased() {
     let scene = very_many();
     assert!(scene.lights.len() > TABLE_UP_TO);
     unbiased(&scene);
-    let reference = mean(&scene, IntegratorKind::Path, 64);
-    for integrator in [IntegratorKind::Bdpt, IntegratorKind::Vcm] {
-        let m = mean(&scene, integrator, 64);
-        eprintln!("{integrator:?}: mean {m:.5} against the path tracer's {reference:.5}");
-        assert!((m / reference - 1.0).abs() < 0.0015, "{integrator:?}: {m} against {reference}");
-    }
+    // (BDPT and VCM on it: with the other floors, below.)
     // Every point of the floor draws EVERY_LIGHT_UP_TO a light sample.
     assert_eq!(shadow_rays_a_pixel(&scene, 2), (EVERY_LIGHT_UP_TO * 2) as f64);
 }
@@ -144,7 +140,7 @@ fn close_lights() -> Scene {
 /// they agree within 0.03% here.
 #[test]
 fn bdpt_and_vcm_weigh_the_draw_among_many_lights() {
-    for scene in [scene(), close_lights()] {
+    for scene in [scene(), close_lights(), very_many()] {
         let reference = mean(&scene, IntegratorKind::Path, 64);
         for integrator in [IntegratorKind::Bdpt, IntegratorKind::Vcm] {
             let m = mean(&scene, integrator, 64);

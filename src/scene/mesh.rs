@@ -28,7 +28,7 @@ pub struct Mesh {
 }
 
 /// Meshes of up to this many triangles keep each triangle's normal rather
-/// than working it out (in `f64`) at every hit: 3-4% of a render's time on
+/// than working it out (in `f64`) at every hit: 4-5% of a render's time on
 /// the teapot and the Cornell box (BENCHMARKS.md, issue 17). It costs 12
 /// bytes a triangle, half again the mesh's own 24; larger meshes, whose
 /// memory is measured against a goal, work it out as before.
