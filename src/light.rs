@@ -251,16 +251,17 @@ impl Light {
     /// spot's cone), so that every light that could light `p` may be
     /// chosen.
     pub fn reach(&self, p: Vec3) -> f32 {
-        let strength = self.reach_strength();
-        let d2 = match *self {
-            Light::Point { position, .. } => (p - position).as_dvec3().length_squared(),
+        match *self {
+            Light::Point { position, .. } => {
+                reach_over(self.reach_strength(), (p - position).as_dvec3().length_squared())
+            }
             Light::Spot { position, .. } => {
                 let to_p = (p - position).as_dvec3();
-                let Some((_, intensity)) = self.intensity((to_p / to_p.length()).as_vec3()) else {
-                    return 0.0;
-                };
                 // The intensity that way (the falloff in it), not the peak.
-                return reach_over(intensity.element_sum() as f64, to_p.length_squared());
+                match self.intensity((to_p / to_p.length()).as_vec3()) {
+                    Some((_, intensity)) => reach_over(intensity.element_sum() as f64, to_p.length_squared()),
+                    None => 0.0,
+                }
             }
             Light::Area { center, face, .. } => {
                 let to_p = (p - center).as_dvec3();
@@ -268,10 +269,9 @@ impl Light {
                     return 0.0;
                 }
                 let half_diagonal2 = 0.25 * (face.length2.0 + face.length2.1 + 2.0 * face.skew.abs());
-                to_p.length_squared().max(half_diagonal2)
+                reach_over(self.reach_strength(), to_p.length_squared().max(half_diagonal2))
             }
-        };
-        reach_over(strength, d2)
+        }
     }
 
     /// The most [`Light::reach`] has over the squared distance: power over

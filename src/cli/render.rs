@@ -104,7 +104,7 @@ pub struct SettingArgs {
     /// Longest chain of rays from the camera (overrides the scene file).
     #[arg(long)]
     max_depth: Option<u32>,
-    /// Shadow rays per area light at each shading point for whitted (default 4), photon and sppm (default 1; the other integrators ignore it); where more than 8 lights reach a point, it draws 8 times this many lights among them instead, each in proportion to what it could send there; overrides the scene file.
+    /// Shadow rays per area light at each shading point for whitted (default 4), photon and sppm (default 1; the other integrators ignore it); where more than 8 lights reach a point, or the scene has more than 256, it draws 8 times this many lights among them instead, each in proportion to what it could send there; overrides the scene file.
     #[arg(long)]
     light_samples: Option<u32>,
     /// Photons emitted for the global map (overrides [photons] global; 0 skips it).

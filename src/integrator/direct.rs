@@ -130,13 +130,15 @@ fn shadow_ray(
 /// more reach it, the point draws `EVERY_LIGHT_UP_TO` times a light's
 /// samples among them ([`LightChoice`]). Above
 /// [`TABLE_UP_TO`](crate::light_choice_tree::TABLE_UP_TO) lights, the
-/// point draws whenever any light may reach it, down the scene's
-/// [`ChoiceTree`], without weighing each light.
+/// point always draws, down the scene's [`ChoiceTree`], without weighing
+/// each light (none where no light may reach it).
 pub struct LightSamples<'l> {
     lights: &'l [Light],
     sampling: LightSampling,
     /// With many lights: how the point chooses among them.
     choice: Option<Choice<'l>>,
+    /// How many times the point draws among them, if it does.
+    draws: Option<u32>,
 }
 
 /// How a point chooses among many lights.
@@ -155,7 +157,17 @@ impl<'l> LightSamples<'l> {
             Some(tree) => Choice::Tree(tree, p),
             None => Choice::Table(LightChoice::at(lights, p)),
         });
-        LightSamples { lights, sampling, choice }
+        let per_light = match sampling {
+            LightSampling::Stratified { samples } => samples,
+            LightSampling::MultipleImportance => 1,
+        };
+        let draws = EVERY_LIGHT_UP_TO as u32 * per_light;
+        let draws = match &choice {
+            None => None,
+            Some(Choice::Table(table)) => (table.reaching > EVERY_LIGHT_UP_TO).then_some(draws),
+            Some(Choice::Tree(tree, p)) => Some(if tree.reaches(lights, *p) { draws } else { 0 }),
+        };
+        LightSamples { lights, sampling, choice, draws }
     }
 
     /// Samples light `light` takes when each light takes its own.
@@ -168,39 +180,41 @@ impl<'l> LightSamples<'l> {
 
     /// Whether the point draws among the lights, and how many times.
     fn draws(&self) -> Option<(&Choice<'l>, u32)> {
-        let choice = self.choice.as_ref()?;
-        let draws = match choice {
-            Choice::Table(table) => table.reaching > EVERY_LIGHT_UP_TO,
-            Choice::Tree(tree, p) => tree.reaches(self.lights, *p),
-        };
-        let per_light = match self.sampling {
-            LightSampling::Stratified { samples } => samples,
-            LightSampling::MultipleImportance => 1,
-        };
-        draws.then_some((choice, EVERY_LIGHT_UP_TO as u32 * per_light))
+        Some((self.choice.as_ref()?, self.draws?))
     }
 
     /// Whether light `i` may reach the point when each light takes its own
-    /// samples (with few lights, each may; with the tree, where the point
-    /// does not draw, none does).
+    /// samples (with few lights, each may; with the tree, the point draws).
     fn reaches(&self, i: usize) -> bool {
         match &self.choice {
-            None => true,
             Some(Choice::Table(table)) => table.reach[i] > 0.0,
-            Some(Choice::Tree(..)) => false,
+            _ => true,
         }
     }
 
     /// How many samples the point takes, at most.
     pub fn most(&self) -> u32 {
-        match (self.draws(), &self.choice) {
-            (Some((_, draws)), _) => draws,
-            // With the tree, a point that does not draw has no light
-            // reaching it (and asking each light would weigh them all).
-            (None, Some(Choice::Tree(..))) => 0,
-            (None, _) => {
+        match self.draws {
+            Some(draws) => draws,
+            None => {
                 (0..self.lights.len()).filter(|&i| self.reaches(i)).map(|i| self.of(&self.lights[i])).sum()
             }
+        }
+    }
+
+    /// The density of the light-sampling strategy at a point of `light`
+    /// (one of `lights`), against its own [`Light::pdf_solid_angle`], under
+    /// multiple importance sampling: the draws expected to pick it at `p`
+    /// (one, where every light that reaches `p` takes a sample). For the
+    /// weights where a path meets a light, or a light subpath leaves one.
+    #[inline]
+    pub fn mis_factor(lights: &Lights, light: &Light, p: Vec3) -> f32 {
+        let plan = LightSamples::at(lights, p, LightSampling::MultipleImportance);
+        let Some((choice, draws)) = plan.draws() else { return 1.0 };
+        let Some(index) = index_of(lights, light) else { return 1.0 };
+        match choice {
+            Choice::Table(table) => table.expected(draws, table.share(index)),
+            Choice::Tree(tree, p) => draws as f32 * tree.chance(lights, *p, index),
         }
     }
 
@@ -309,23 +323,6 @@ impl<'l> LightChoice<'l> {
     /// Light `i`'s share of the total reach.
     fn share(&self, i: usize) -> f32 {
         self.reach[i] / self.total
-    }
-
-    /// The density of the light-sampling strategy at a point of `light`
-    /// (one of `lights`), against its own [`Light::pdf_solid_angle`], under
-    /// multiple importance sampling: the draws expected to pick it at `p`
-    /// (one, where every light that reaches `p` takes a sample, as
-    /// [`LightSamples`] decides). For the weights where a path meets a
-    /// light, or a light subpath leaves one.
-    #[inline]
-    pub fn mis_factor(lights: &Lights, light: &Light, p: Vec3) -> f32 {
-        let plan = LightSamples::at(lights, p, LightSampling::MultipleImportance);
-        let Some((choice, draws)) = plan.draws() else { return 1.0 };
-        let Some(index) = index_of(lights, light) else { return 1.0 };
-        match choice {
-            Choice::Table(table) => table.expected(draws, table.share(index)),
-            Choice::Tree(tree, p) => draws as f32 * tree.chance(lights, *p, index),
-        }
     }
 
     /// A walk along the lights for draws in increasing order.

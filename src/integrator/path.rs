@@ -14,7 +14,7 @@
 
 use glam::Vec3;
 
-use super::direct::{direct_light, LightChoice, LightSampling};
+use super::direct::{direct_light, LightSamples, LightSampling};
 use super::pixels::{average_over_pixel, render_pixels};
 use super::{Context, Integrator, Progress, Rendered};
 use crate::accel::Ray;
@@ -104,7 +104,7 @@ fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) ->
                     Some(p_bsdf) => {
                         let lights = &query.scene.lights;
                         let p_light = light.pdf_solid_angle(ray.at(t), ray.origin)
-                            * LightChoice::mis_factor(lights, light, last_point);
+                            * LightSamples::mis_factor(lights, light, last_point);
                         p_bsdf / (p_bsdf + p_light)
                     }
                 };

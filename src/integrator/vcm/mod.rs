@@ -33,7 +33,7 @@ mod grid;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::direct::{LightChoice, LightSamples, LightSampling};
+use super::direct::{LightSamples, LightSampling};
 use super::path::PathClass;
 use super::pixels::render_pixels;
 use super::{Context, Integrator, Progress, Rendered, SampleRange};
@@ -464,7 +464,7 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
         if path.length == 1 {
             // Next-event estimation from this vertex would sample the
             // light's point with this many samples ([`LightSamples`]).
-            path.d_vcm *= mis(LightChoice::mis_factor(lights, light, sp.p));
+            path.d_vcm *= mis(LightSamples::mis_factor(lights, light, sp.p));
         }
         let bsdf = Bsdf::new(query.material(&sp), &sp, dir);
         if bsdf.has_smooth() {
@@ -571,7 +571,7 @@ fn camera_path(
                     if path.arrive(t * ray.dir.length(), pdfs.cos) {
                         // Next-event estimation at the vertex before would
                         // have sampled this light with this many samples.
-                        let nee = LightChoice::mis_factor(lights, light, last_point);
+                        let nee = LightSamples::mis_factor(lights, light, last_point);
                         let w_camera = mis(pdfs.direct_area * nee) * path.d_vcm
                             + mis(pass.pick_of(lights, light) * pdfs.emit) * path.d_vc;
                         *class.slot(&mut out) += finite(path.throughput * radiance / (1.0 + w_camera) as f32);
