@@ -10,6 +10,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use crate::accel::Ray;
+use crate::bounds::Bounds;
 use crate::numeric;
 use crate::sampling::{around, cosine_hemisphere, uniform_cone, uniform_sphere};
 
@@ -284,6 +285,17 @@ impl Light {
                 spot_peak_intensity(power, cone_angle, falloff_start).element_sum() as f64
             }
             Light::Area { power, .. } => power.element_sum() as f64 / std::f64::consts::PI,
+        }
+    }
+
+    /// The box around the light: its point, or its panel's four corners.
+    pub fn bounds(&self) -> Bounds {
+        match *self {
+            Light::Point { position, .. } | Light::Spot { position, .. } => Bounds::of(&[position]),
+            Light::Area { center, u, v, .. } => {
+                let (hu, hv) = (0.5 * u, 0.5 * v);
+                Bounds::of(&[center - hu - hv, center + hu - hv, center + hu + hv, center - hu + hv])
+            }
         }
     }
 

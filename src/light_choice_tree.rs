@@ -61,41 +61,33 @@ impl Reach {
     fn of(light: &Light) -> Reach {
         let strength = light.reach_strength();
         match *light {
-            Light::Point { position, .. } => Reach {
-                bounds: Bounds::of(&[position]),
+            Light::Point { .. } => Reach {
+                bounds: light.bounds(),
                 strength,
                 axis: DVec3::Z,
                 spread: std::f64::consts::PI,
                 beyond: std::f64::consts::PI,
             },
-            Light::Spot { position, direction, cone_angle, .. } => {
+            Light::Spot { direction, cone_angle, .. } => {
                 let (axis, spread) = match direction.as_dvec3().try_normalize() {
                     Some(axis) => (axis, 0.0),
                     None => (DVec3::Z, std::f64::consts::PI),
                 };
                 Reach {
-                    bounds: Bounds::of(&[position]),
+                    bounds: light.bounds(),
                     strength,
                     axis,
                     spread,
                     beyond: (cone_angle as f64).min(std::f64::consts::PI),
                 }
             }
-            Light::Area { center, u, v, .. } => {
-                let (hu, hv) = (0.5 * u, 0.5 * v);
-                let corners = [center - hu - hv, center + hu - hv, center + hu + hv, center - hu + hv];
+            Light::Area { .. } => {
                 // A panel without a normal faces nowhere in particular.
                 let (axis, spread) = match light.facing().as_dvec3().try_normalize() {
                     Some(normal) => (normal, 0.0),
                     None => (DVec3::Z, std::f64::consts::PI),
                 };
-                Reach {
-                    bounds: Bounds::of(&corners),
-                    strength,
-                    axis,
-                    spread,
-                    beyond: std::f64::consts::FRAC_PI_2,
-                }
+                Reach { bounds: light.bounds(), strength, axis, spread, beyond: std::f64::consts::FRAC_PI_2 }
             }
         }
     }

@@ -220,9 +220,8 @@ fn build(boxes: &[Bounds], order: &mut [u32], start: usize, end: usize, nodes: &
 /// panel's size, and a hundred-thousandth of its distance from the origin):
 /// a ray the test finds crossing the panel always enters the box.
 fn padded_box(light: &Light) -> Bounds {
-    let Light::Area { center, u, v, .. } = *light else { return Bounds::EMPTY };
-    let corners = [-0.5f32, 0.5].map(|a| [-0.5f32, 0.5].map(|b| center + a * u + b * v));
-    let b = Bounds::of(&corners.concat());
+    let Light::Area { u, v, .. } = *light else { return Bounds::EMPTY };
+    let b = light.bounds();
     let pad = 1e-4 * (u.abs() + v.abs()).max_element() + 1e-5 * b.min.abs().max(b.max.abs()).max_element();
     Bounds { min: b.min - Vec3::splat(pad), max: b.max + Vec3::splat(pad) }
 }

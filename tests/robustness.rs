@@ -305,6 +305,15 @@ fn values_beyond_the_floats_are_refused() {
     );
     let far = QUAD_SCENE.replace("u = [5, 0, 0]", "u = [1e30, 0, 0]");
     info("far.toml", &far, "reaches more than 1e12 from the camera");
+    // Lights too: photons and light paths start on them, and Embree aborts
+    // the process on a ray that starts beyond its range.
+    let far_light = QUAD_SCENE.replace("position = [0, 0, 4]", "position = [0, 0, 1e20]");
+    info("far-light.toml", &far_light, "point light #1 reaches 1e20 from the camera, beyond 1e12");
+    let wide_light = QUAD_SCENE.replace(
+        "[[point_light]]\nposition = [0, 0, 4]",
+        "[[area_light]]\ncenter = [0, 0, 4]\nu = [1, 0, 0]\nv = [0, -4e13, 0]",
+    );
+    info("wide-light.toml", &wide_light, "area light #1 reaches 2e13 from the camera");
     let tiny = QUAD_SCENE
         .replace("[0, 0, 5]", "[0, 0, 5e-14]")
         .replace("[5, 0, 0]", "[5e-14, 0, 0]")

@@ -194,19 +194,40 @@ impl Builder<'_> {
 
     fn lights(&self, f: &file::SceneFile) -> Result<Vec<Light>> {
         let mut lights = Vec::new();
-        for l in &f.point_light {
-            lights.push(Light::Point { position: self.place(l.position), power: l.power.0 });
+        for (i, l) in f.point_light.iter().enumerate() {
+            let light = Light::Point { position: self.place(l.position), power: l.power.0 };
+            lights.push(self.within_reach(&format!("point light #{}", i + 1), light)?);
         }
-        for l in &f.area_light {
+        for (i, l) in f.area_light.iter().enumerate() {
             if crate::numeric::unit_cross(l.u.get_ref().0, l.v.0).is_none() {
                 return Err(self.error_at(l.u.span(), "the area light's edges u and v are zero or parallel"));
             }
-            lights.push(Light::area(self.place(l.center), l.u.get_ref().0, l.v.0, l.power.0));
+            let light = Light::area(self.place(l.center), l.u.get_ref().0, l.v.0, l.power.0);
+            lights.push(self.within_reach(&format!("area light #{}", i + 1), light)?);
         }
-        for l in &f.spot_light {
-            lights.push(self.spot_light(l)?);
+        for (i, l) in f.spot_light.iter().enumerate() {
+            let light = self.spot_light(l)?;
+            lights.push(self.within_reach(&format!("spot light #{}", i + 1), light)?);
         }
         Ok(lights)
+    }
+
+    /// `light`, if it lies within the distance of the camera that meshes may
+    /// reach: rays start on lights (photons, light paths), and ray tests
+    /// past it lose all precision (Embree rejects such rays outright).
+    fn within_reach(&self, name: &str, light: Light) -> Result<Light> {
+        let b = light.bounds();
+        let extent = b.min.abs().max(b.max.abs()).max_element();
+        if b.min.is_finite() && b.max.is_finite() && extent <= MAX_DISTANCE {
+            return Ok(light);
+        }
+        Err(Error::input(
+            self.path,
+            format!(
+                "{name} reaches {extent:e} from the camera, beyond {MAX_DISTANCE:e}: more than 32-bit floats can \
+                 trace; bring it closer"
+            ),
+        ))
     }
 
     /// The built-in shapes: spheres, quads, boxes, rings and teapots.
