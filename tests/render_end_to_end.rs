@@ -112,6 +112,34 @@ fn cli_size_flags_override_the_scene() {
     assert_eq!(image::open(&out).unwrap().to_rgb8().dimensions(), (20, 10));
 }
 
+/// A point light in a glass bulb lights the quad only through the glass:
+/// the path tracer and Whitted render it black, and say so before they
+/// start; the integrators that carry the light say nothing.
+#[test]
+fn cli_warns_when_the_integrator_leaves_out_a_lights_light_through_glass() {
+    let dir = tempfile::tempdir().unwrap();
+    let bulb = "[materials.glass]\ntransmittance = 1.0\n[[sphere]]\ncenter = [0, 0, 4]\nradius = 0.3\nmaterial = \"glass\"\n";
+    let scene = write(dir.path(), "bulb.toml", &format!("{QUAD_SCENE}\n{bulb}"));
+    let out = dir.path().join("bulb.png");
+    let run_with = |integrator: &str| {
+        let args = ["render", "--integrator", integrator, "--width", "16", "--height", "16", "--spp", "1"];
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+        let run = caustix(&[&args[..], &[scene.as_os_str(), "-o".as_ref(), out.as_os_str()]].concat());
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        String::from_utf8_lossy(&run.stderr).into_owned()
+    };
+    for integrator in ["path", "whitted"] {
+        let stderr = run_with(integrator);
+        assert!(
+            stderr.contains(
+                "100.0% of the scene's light goes from point or spot lights straight to mirrors or glass"
+            ) && stderr.contains(&format!("the {integrator} integrator leaves all of it out")),
+            "{stderr}"
+        );
+    }
+    assert!(!run_with("sppm").contains("warning"));
+}
+
 #[test]
 fn cli_info_lists_the_scene() {
     let dir = tempfile::tempdir().unwrap();

@@ -299,6 +299,12 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     };
 
     let (pool, accel) = pool_and_accel(threads, &scene, &settings)?;
+    if caustix::integrator::create(settings.integrator).misses_point_light_caustics() {
+        let query = caustix::query::SceneQuery::new(&scene, accel.as_ref());
+        if let Some(w) = caustix::integrator::unreached::warning(&query, settings.integrator.name()) {
+            eprintln!("warning: {}: {w}", scene_path.display());
+        }
+    }
 
     let work = caustix::integrator::work_units(&settings);
     let bar = if std::io::stderr().is_terminal() { ProgressBar::new(work) } else { ProgressBar::hidden() };

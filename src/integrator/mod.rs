@@ -13,6 +13,7 @@ pub mod pixels;
 pub mod preview;
 mod rounds;
 pub mod sppm;
+pub mod unreached;
 pub mod vcm;
 pub mod whitted;
 
@@ -147,6 +148,13 @@ pub trait Integrator: Sync {
     /// Whether more camera samples refine its image, so that a time budget
     /// renders in rounds of samples ([`RenderConfig::time`]).
     fn refines_by_samples(&self) -> bool {
+        false
+    }
+
+    /// Whether it reaches point and spot lights only by shadow rays, so
+    /// that what they send to mirrors or through glass is missing from its
+    /// image ([`unreached`]).
+    fn misses_point_light_caustics(&self) -> bool {
         false
     }
 

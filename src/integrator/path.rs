@@ -31,6 +31,10 @@ impl Integrator for PathTracer {
         true
     }
 
+    fn misses_point_light_caustics(&self) -> bool {
+        true
+    }
+
     fn pixels_sample_alone(&self) -> bool {
         true
     }

@@ -32,6 +32,10 @@ impl Integrator for Whitted {
         true
     }
 
+    fn misses_point_light_caustics(&self) -> bool {
+        true
+    }
+
     fn pixels_sample_alone(&self) -> bool {
         true
     }
