@@ -292,15 +292,18 @@ fn budgets_out_of_range_are_refused() {
             other => panic!("time {bad}: {other:?}"),
         }
     }
-    let out = common::caustix(&[
-        "render".as_ref(),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml").as_os_str(),
-        "--time".as_ref(),
-        "0".as_ref(),
-    ]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && stderr.contains("--time must be a number of seconds above 0"),
-        "{stderr}"
-    );
+    // A negative number is read as the flag's value, not as another flag.
+    for bad in ["0", "-1"] {
+        let out = common::caustix(&[
+            "render".as_ref(),
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml").as_os_str(),
+            "--time".as_ref(),
+            bad.as_ref(),
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && stderr.contains("--time must be a number of seconds above 0"),
+            "{stderr}"
+        );
+    }
 }

@@ -23,7 +23,7 @@ pub enum BenchCommand {
         threads: Vec<u32>,
         /// Re-tessellate every teapot at this many quads per patch edge
         /// (125 -> 1M triangles), so the builds have work to share.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         teapot_subdivisions: Option<u32>,
         /// Size of the render, WIDTHxHEIGHT, with the scene's other settings.
         #[arg(long, default_value = "320x240")]
@@ -39,10 +39,10 @@ pub enum BenchCommand {
         #[arg(long, value_delimiter = ',', default_value = "100000,1000000,10000000")]
         counts: Vec<u32>,
         /// Neighbours per query.
-        #[arg(long, default_value_t = 50)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 50)]
         k: u32,
         /// Queries per map (at stored photons' positions).
-        #[arg(long, default_value_t = 1_000_000)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 1_000_000)]
         queries: u32,
         /// Write the last map's points and queries here, for
         /// scripts/bench-nanoflann.sh to answer the same queries.
@@ -57,16 +57,16 @@ pub enum BenchCommand {
         scene: PathBuf,
         /// Re-tessellate every teapot at this many quads per patch edge
         /// (about 64 N^2 triangles: 13 -> 10k, 125 -> 1M, 395 -> 10M).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         teapot_subdivisions: Option<u32>,
         /// Width of the primary-ray grid.
-        #[arg(long, default_value_t = 1024)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 1024)]
         width: u32,
         /// Height of the primary-ray grid.
-        #[arg(long, default_value_t = 1024)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 1024)]
         height: u32,
         /// Runs per measurement; the fastest counts.
-        #[arg(long, default_value_t = 3)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 3)]
         repeats: usize,
     },
     /// Cost against mesh size: for each teapot tessellation level, load
@@ -80,7 +80,7 @@ pub enum BenchCommand {
         #[arg(long, value_delimiter = ',', default_value = "13,125,395,685")]
         levels: Vec<u32>,
         /// Side of the square grid of camera rays whose hits send the diffuse rays.
-        #[arg(long, default_value_t = 512)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 512)]
         rays: u32,
         /// Size of the render, WIDTHxHEIGHT, with the scene's other settings.
         #[arg(long, default_value = "320x240")]
@@ -132,7 +132,7 @@ pub struct ErrorArgs {
     #[arg(long, value_parser = named::<Integrator>(Integrator::ALL.iter().map(|k| k.name())), value_delimiter = ',', default_value = "path,photon,sppm,vcm")]
     integrators: Vec<Integrator>,
     /// Budgets per integrator, each double the one before.
-    #[arg(long, default_value_t = 6)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 6)]
     levels: u32,
     /// Where to write the table.
     #[arg(long, default_value = "error.csv")]
@@ -150,7 +150,7 @@ pub struct ErrorArgs {
     #[arg(long)]
     caustic_reference: Option<PathBuf>,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     threads: Option<u32>,
 }
 

@@ -70,7 +70,7 @@ enum Command {
         output: PathBuf,
         /// Re-tessellate every teapot at this many quads per patch edge first
         /// (about 64 N^2 triangles: 125 -> 1M, 395 -> 10M, 685 -> 30M).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         teapot_subdivisions: Option<u32>,
     },
     /// Measure performance.
@@ -86,7 +86,7 @@ enum Command {
         #[arg(long)]
         error_image: Option<PathBuf>,
         /// Absolute difference shown as full red in the error picture.
-        #[arg(long, default_value_t = 0.1)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 0.1)]
         error_scale: f32,
     },
     /// Denoise a rendered image with Intel Open Image Denoise (needs caustix

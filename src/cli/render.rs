@@ -35,7 +35,7 @@ pub struct RenderArgs {
     /// Whitted and photon mapping, more passes for SPPM, VCM, BDPT and
     /// light tracing; from 2 s on, photon mapping chooses its gather rays
     /// per sample by a short pilot (overrides [render] time).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     time: Option<f32>,
     /// With a time budget: write the output image (not denoised) each time
     /// the render has refined, after each round of samples (SPPM: after
@@ -63,7 +63,7 @@ pub struct RenderArgs {
     #[arg(long)]
     denoise: bool,
     /// Worker threads (default: all cores). The image is the same for any count.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     threads: Option<u32>,
 }
 
@@ -92,43 +92,43 @@ pub struct SettingArgs {
     #[arg(long, value_parser = named::<SamplerKind>(SamplerKind::NAMES.map(|(n, _)| n)))]
     sampler: Option<SamplerKind>,
     /// Image width in pixels (overrides the scene file).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     width: Option<u32>,
     /// Image height in pixels (overrides the scene file).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     height: Option<u32>,
     /// Camera samples per pixel (overrides the scene file); for VCM, BDPT
     /// and light tracing, passes (one camera sample per pixel each).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     spp: Option<u32>,
     /// Longest chain of rays from the camera (overrides the scene file).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     max_depth: Option<u32>,
     /// Shadow rays per area light at each shading point for whitted (default 4), photon and sppm (default 1; the other integrators ignore it); where more than 8 lights reach a point, or the scene has more than 256, it draws 8 times this many lights among them instead, each in proportion to what it could send there; overrides the scene file.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     light_samples: Option<u32>,
     /// Photons emitted for the global map (overrides [photons] global; 0 skips it).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     photons: Option<u32>,
     /// Photons emitted for the caustic map (overrides [photons] caustic; 0 skips it).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     caustic_photons: Option<u32>,
     /// Nearest photons per global estimate (overrides [photons] global_k).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     global_k: Option<u32>,
     /// Nearest photons per caustic estimate (overrides [photons] caustic_k).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     caustic_k: Option<u32>,
     /// Largest search radius of a global estimate (overrides [photons] global_radius).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     global_radius: Option<f32>,
     /// Largest search radius of a caustic estimate (overrides [photons] caustic_radius).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     caustic_radius: Option<f32>,
     /// Final-gathering rays per camera sample; 0 shows the global map
     /// directly; with a time budget of 2 s or more, a pilot chooses the
     /// count unless it is 0 (overrides [photons] gather_rays).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     gather_rays: Option<u32>,
     /// Whether gather rays favour the directions the global map's photons
     /// came from (true, the default) or follow the cosine alone (overrides
@@ -136,18 +136,18 @@ pub struct SettingArgs {
     #[arg(long, value_name = "BOOL")]
     guided_gathering: Option<bool>,
     /// Passes of progressive photon mapping (overrides [photons] passes).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     passes: Option<u32>,
     /// Photons per pass of progressive photon mapping (overrides [photons] pass_photons).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pass_photons: Option<u32>,
     /// Starting radius of progressive photon mapping (default: each pixel's
     /// own, holding 32 photons of a first batch), and of VCM's merging
     /// (overrides [photons] sppm_radius).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     sppm_radius: Option<f32>,
     /// Seed of every random stream: another seed, an independent image (default 0).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     seed: u64,
 }
 

@@ -18,7 +18,7 @@ pub struct PhotonsArgs {
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Worker threads (default: all cores). The maps are the same for any count.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     threads: Option<u32>,
 }
 
