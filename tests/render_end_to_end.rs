@@ -114,7 +114,8 @@ fn cli_size_flags_override_the_scene() {
 
 /// A point light in a glass bulb lights the quad only through the glass:
 /// the path tracer and Whitted render it black, and say so before they
-/// start; the integrators that carry the light say nothing.
+/// start; the integrators that carry the light say nothing; `info` gives
+/// the share.
 #[test]
 fn cli_warns_when_the_integrator_leaves_out_a_lights_light_through_glass() {
     let dir = tempfile::tempdir().unwrap();
@@ -138,6 +139,9 @@ fn cli_warns_when_the_integrator_leaves_out_a_lights_light_through_glass() {
         );
     }
     assert!(!run_with("sppm").contains("warning"));
+    let info = caustix(&["info".as_ref(), scene.as_os_str()]);
+    let stdout = String::from_utf8_lossy(&info.stdout);
+    assert!(stdout.contains("caustics  100.0% of the light goes from point or spot lights"), "{stdout}");
 }
 
 #[test]

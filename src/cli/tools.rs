@@ -193,5 +193,14 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
     let accel = build_accel(&scene)?;
     outln!("backend   {} (built in {:.2} s)", accel.name(), start.elapsed().as_secs_f64());
+    let query = caustix::query::SceneQuery::new(&scene, accel.as_ref());
+    let share = caustix::integrator::unreached::share_to_mirrors_from_points(&query);
+    if share > 0.0 {
+        outln!(
+            "caustics  {:.1}% of the light goes from point or spot lights straight to mirrors or glass (path and \
+             whitted leave it out)",
+            100.0 * share
+        );
+    }
     Ok(())
 }
