@@ -59,37 +59,20 @@ struct Reach {
 
 impl Reach {
     fn of(light: &Light) -> Reach {
-        let strength = light.reach_strength();
-        match *light {
-            Light::Point { .. } => Reach {
-                bounds: light.bounds(),
-                strength,
-                axis: DVec3::Z,
-                spread: std::f64::consts::PI,
-                beyond: std::f64::consts::PI,
-            },
+        let (bounds, strength) = (light.bounds(), light.reach_strength());
+        // A spot or panel without a direction faces nowhere in particular.
+        let facing = |direction: Vec3| match direction.as_dvec3().try_normalize() {
+            Some(axis) => (axis, 0.0),
+            None => (DVec3::Z, std::f64::consts::PI),
+        };
+        let ((axis, spread), beyond) = match *light {
+            Light::Point { .. } => ((DVec3::Z, std::f64::consts::PI), std::f64::consts::PI),
             Light::Spot { direction, cone_angle, .. } => {
-                let (axis, spread) = match direction.as_dvec3().try_normalize() {
-                    Some(axis) => (axis, 0.0),
-                    None => (DVec3::Z, std::f64::consts::PI),
-                };
-                Reach {
-                    bounds: light.bounds(),
-                    strength,
-                    axis,
-                    spread,
-                    beyond: (cone_angle as f64).min(std::f64::consts::PI),
-                }
+                (facing(direction), (cone_angle as f64).min(std::f64::consts::PI))
             }
-            Light::Area { .. } => {
-                // A panel without a normal faces nowhere in particular.
-                let (axis, spread) = match light.facing().as_dvec3().try_normalize() {
-                    Some(normal) => (normal, 0.0),
-                    None => (DVec3::Z, std::f64::consts::PI),
-                };
-                Reach { bounds: light.bounds(), strength, axis, spread, beyond: std::f64::consts::FRAC_PI_2 }
-            }
-        }
+            Light::Area { .. } => (facing(light.facing()), std::f64::consts::FRAC_PI_2),
+        };
+        Reach { bounds, strength, axis, spread, beyond }
     }
 
     fn union(&self, other: &Reach) -> Reach {
