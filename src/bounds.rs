@@ -30,6 +30,19 @@ impl Bounds {
         Bounds { min: self.min.min(other.min), max: self.max.max(other.max) }
     }
 
+    /// The axis (0, 1, 2 for x, y, z) along which the box is widest, ties
+    /// to the first: where the trees over lights and photons split.
+    pub fn widest_axis(&self) -> usize {
+        let extent = self.max - self.min;
+        if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        }
+    }
+
     /// Half the surface area (what the SAH compares); 0 for an empty box.
     pub fn half_area(&self) -> f32 {
         let d = (self.max - self.min).max(Vec3::ZERO);

@@ -238,15 +238,7 @@ impl ChoiceTree {
             let b = reaches[*i as usize].bounds;
             0.5 * (b.min + b.max)
         };
-        let centres = Bounds::of(&order.iter().map(centre).collect::<Vec<_>>());
-        let extent = centres.max - centres.min;
-        let axis = if extent.x >= extent.y && extent.x >= extent.z {
-            0
-        } else if extent.y >= extent.z {
-            1
-        } else {
-            2
-        };
+        let axis = Bounds::of(&order.iter().map(centre).collect::<Vec<_>>()).widest_axis();
         let half = order.len() / 2;
         order.select_nth_unstable_by(half, |a, b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(b)));
         let (left, right) = order.split_at_mut(half);

@@ -54,6 +54,14 @@ impl Lights {
         self.choice.as_ref()
     }
 
+    /// The index of `light` in the list, if it is one of them (from its
+    /// address: a search would weigh as much as every light again).
+    pub fn index_of(&self, light: &Light) -> Option<usize> {
+        let offset = (light as *const Light as usize).wrapping_sub(self.all.as_ptr() as usize);
+        let index = offset / std::mem::size_of::<Light>();
+        self.all.get(index).filter(|l| std::ptr::eq(*l, light)).map(|_| index)
+    }
+
     /// The nearest area light whose panel `ray` crosses before `ray.t_max`:
     /// the light, the ray parameter, and the side. Of lights crossed at the
     /// same parameter, the first in the list.
@@ -196,15 +204,7 @@ fn build(boxes: &[Bounds], order: &mut [u32], start: usize, end: usize, nodes: &
         let b = boxes[i as usize];
         0.5 * (b.min + b.max)
     };
-    let spread = order[start..end].iter().fold(Bounds::EMPTY, |b, &i| b.grow(centre(i)));
-    let extent = spread.max - spread.min;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z {
-        0
-    } else if extent.y >= extent.z {
-        1
-    } else {
-        2
-    };
+    let axis = order[start..end].iter().fold(Bounds::EMPTY, |b, &i| b.grow(centre(i))).widest_axis();
     let mid = (start + end) / 2;
     order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
         centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b))
@@ -246,6 +246,20 @@ fn enters(b: &Bounds, origin: Vec3, inv: Vec3, reach: f32) -> bool {
 mod tests {
     use super::*;
     use crate::sampling::Rng;
+
+    #[test]
+    fn a_light_is_found_at_its_index_and_a_copy_is_not() {
+        let point = |x: f32| Light::Point { position: Vec3::new(x, 0.0, 0.0), power: Vec3::ONE };
+        let lights = Lights::new((0..5).map(|i| point(i as f32)).collect());
+        for (i, light) in lights.iter().enumerate() {
+            assert_eq!(lights.index_of(light), Some(i));
+        }
+        let copy = lights[2].clone();
+        assert_eq!(lights.index_of(&copy), None);
+        // Nor a light that lies just past the list in memory.
+        let others = [point(0.0), point(1.0)];
+        assert_eq!(lights.index_of(&others[1]), None);
+    }
 
     fn uniform_in(rng: &mut Rng, lo: f32, hi: f32) -> f32 {
         lo + (hi - lo) * rng.uniform()

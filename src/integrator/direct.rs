@@ -211,7 +211,7 @@ impl<'l> LightSamples<'l> {
     pub fn mis_factor(lights: &Lights, light: &Light, p: Vec3) -> f32 {
         let plan = LightSamples::at(lights, p, LightSampling::MultipleImportance);
         let Some((choice, draws)) = plan.draws() else { return 1.0 };
-        let Some(index) = index_of(lights, light) else { return 1.0 };
+        let Some(index) = lights.index_of(light) else { return 1.0 };
         match choice {
             Choice::Table(table) => table.expected(draws, table.share(index)),
             Choice::Tree(tree, p) => draws as f32 * tree.chance(lights, *p, index),
@@ -329,14 +329,6 @@ impl<'l> LightChoice<'l> {
     fn walk(&self) -> Walk<'_, 'l> {
         Walk { choice: self, next: 0, end: 0.0, current: None }
     }
-}
-
-/// The index of `light` in `lights`, if it is one of them (from its address:
-/// a search would weigh as much as every light again).
-fn index_of(lights: &[Light], light: &Light) -> Option<usize> {
-    let offset = (light as *const Light as usize).wrapping_sub(lights.as_ptr() as usize);
-    let index = offset / std::mem::size_of::<Light>();
-    lights.get(index).filter(|l| std::ptr::eq(*l, light)).map(|_| index)
 }
 
 /// Lights picked in turn by increasing uniforms: each light holds the part

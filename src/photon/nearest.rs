@@ -16,6 +16,7 @@
 use glam::Vec3;
 
 use super::cells::Cells;
+use crate::bounds::Bounds;
 
 /// At most this many points in a leaf.
 const LEAF: usize = 8;
@@ -305,16 +306,7 @@ fn split_serially(entries: &mut [Entry], node: usize, splits: &mut Vec<(usize, (
 /// Splits `entries` (more than [`LEAF`]) at the median of their widest
 /// axis, ties by index: the split (value and axis) and the two halves.
 fn split_once(entries: &mut [Entry]) -> ((f32, u8), &mut [Entry], &mut [Entry]) {
-    let (lo, hi) =
-        entries.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), e| (lo.min(e.0), hi.max(e.0)));
-    let extent = hi - lo;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z {
-        0
-    } else if extent.y >= extent.z {
-        1
-    } else {
-        2
-    };
+    let axis = entries.iter().fold(Bounds::EMPTY, |b, e| b.grow(e.0)).widest_axis();
     let mid = entries.len() / 2;
     entries.select_nth_unstable_by(mid, |a, b| a.0[axis].total_cmp(&b.0[axis]).then(a.1.cmp(&b.1)));
     let here = (entries[mid].0[axis], axis as u8);

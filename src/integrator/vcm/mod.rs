@@ -42,6 +42,7 @@ use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
 use crate::light::Light;
+use crate::light_tree::Lights;
 use crate::photon::map::lands_near;
 use crate::query::{Interaction, RayCount, SurfacePoint};
 use crate::sampling::Rng;
@@ -242,8 +243,8 @@ impl<'a> Pass<'a> {
         }
     }
 
-    fn pick_of(&self, lights: &[Light], light: &Light) -> f32 {
-        lights.iter().position(|l| std::ptr::eq(l, light)).map_or(0.0, |i| self.pick[i])
+    fn pick_of(&self, lights: &Lights, light: &Light) -> f32 {
+        lights.index_of(light).map_or(0.0, |i| self.pick[i])
     }
 }
 
