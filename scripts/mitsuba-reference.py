@@ -26,8 +26,10 @@ has no path for light through glass from a point light, so for scenes that
 have such light its image lacks it.
 
 Needs `pip install mitsuba numpy` and a caustix binary (target/release/caustix
-by default). The `llvm_ad_rgb` variant needs libLLVM (Debian's libllvm15, which
-libclang-dev brings); `--variant scalar_rgb` needs nothing more.
+by default). The `llvm_ad_rgb` variant needs libLLVM 16 or later (`apt-get install
+libllvm19` on Debian 12, whose libLLVM 15 fails on Dr.Jit's code; the
+newest found is used unless DRJIT_LIBLLVM_PATH names one); `--variant
+scalar_rgb` needs nothing more and runs about 2.5x slower.
 """
 import argparse
 import math
@@ -211,6 +213,20 @@ def mitsuba_scene(args, scene, workdir):
     return out
 
 
+def newest_llvm():
+    """The newest libLLVM of version 16 or later in the system's library
+    folders (Dr.Jit's code fails on Debian 12's default, 15), if any."""
+    import glob
+    import re
+
+    found = []
+    for path in glob.glob("/usr/lib/*/libLLVM-*.so") + glob.glob("/usr/lib/*/libLLVM.so.*"):
+        match = re.search(r"libLLVM(?:-|\.so\.)(\d+)", path)
+        if match and int(match.group(1)) >= 16:
+            found.append((int(match.group(1)), path))
+    return max(found)[1] if found else None
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("scene")
@@ -225,11 +241,20 @@ def main():
     parser.add_argument("--caustix", default=os.path.join(os.path.dirname(__file__), "..", "target", "release", "caustix"))
     args = parser.parse_args()
 
+    if args.variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
+        newest = newest_llvm()
+        if newest:
+            os.environ["DRJIT_LIBLLVM_PATH"] = newest
     import mitsuba as mi
 
+    if not os.access(args.caustix, os.X_OK):
+        sys.exit(f"error: no caustix binary at {args.caustix}: build it (cargo build --release) or give --caustix")
     mi.set_variant(args.variant)
-    with open(args.scene, "rb") as f:
-        scene = tomllib.load(f)
+    try:
+        with open(args.scene, "rb") as f:
+            scene = tomllib.load(f)
+    except (OSError, tomllib.TOMLDecodeError) as e:
+        refuse(args.scene, f"cannot read the scene: {e}")
     with tempfile.TemporaryDirectory() as workdir:
         loaded = mi.load_dict(mitsuba_scene(args, scene, workdir))
     start = time.time()
