@@ -70,7 +70,7 @@ pub struct Rng {
 /// pair's number. Any prefix of 2^k samples of a pixel is stratified in
 /// every pair, whatever the other pairs; every value is uniform, so the
 /// estimates stay unbiased.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 struct Sobol {
     /// The sample's index within its pixel, its bits reversed (the form
     /// Owen scrambling works on).
@@ -79,6 +79,30 @@ struct Sobol {
     seed: u32,
     /// The next dimension pair to hand out.
     pair: u32,
+    /// The seeds of the pairs drawn so far by this stream's samples: the
+    /// same for every sample of a pixel, so a stream restarted at its next
+    /// sample ([`Rng::restart`]) hashes them once (four hashes a pair, a
+    /// third of the Sobol points' cost in the path tracer: BENCHMARKS.md).
+    seeds: Vec<PairSeeds>,
+    /// The PCG32 state the stream starts from (its [`Rng::next_u32`]).
+    start_state: u64,
+}
+
+/// A dimension pair's seeds: for its index shuffle, and for its two
+/// coordinates' scrambles.
+#[derive(Debug, Clone, Copy)]
+struct PairSeeds {
+    index: u32,
+    x: u32,
+    y: u32,
+}
+
+impl PairSeeds {
+    /// The seeds of pair `pair` of the stream hashed to `seed`.
+    fn of(seed: u32, pair: u32) -> PairSeeds {
+        let seed = mix(seed, pair);
+        PairSeeds { index: mix(seed, 1), x: mix(seed, 2), y: mix(seed, 3) }
+    }
 }
 
 /// A 32-bit mix of two words (the `hash_combine` of Boost with a final
@@ -209,9 +233,9 @@ impl Sobol {
     /// starts from `index` itself.
     #[inline]
     fn next_pair(&mut self) -> Vec2 {
-        let (seed, index) = self.next_index();
-        let x = scramble_reversed(index, mix(seed, 2));
-        let y = scramble_reversed(sobol_second_reversed(index), mix(seed, 3));
+        let (seeds, index) = self.next_index();
+        let x = scramble_reversed(index, seeds.x);
+        let y = scramble_reversed(sobol_second_reversed(index), seeds.y);
         Vec2::new(fraction(x), fraction(y))
     }
 
@@ -219,16 +243,25 @@ impl Sobol {
     /// number): the y coordinate's scramble and table lookups skipped.
     #[inline]
     fn next_one(&mut self) -> f32 {
-        let (seed, index) = self.next_index();
-        fraction(scramble_reversed(index, mix(seed, 2)))
+        let (seeds, index) = self.next_index();
+        fraction(scramble_reversed(index, seeds.x))
     }
 
-    /// The next pair's seed and its scrambled index.
+    /// The next pair's seeds and its scrambled index.
     #[inline]
-    fn next_index(&mut self) -> (u32, u32) {
-        let seed = mix(self.seed, self.pair);
+    fn next_index(&mut self) -> (PairSeeds, u32) {
+        let pair = self.pair;
         self.pair += 1;
-        (seed, scramble_reversed(self.index_reversed, mix(seed, 1)))
+        // Pairs are drawn in order: one not kept yet is the next to keep.
+        let seeds = match self.seeds.get(pair as usize) {
+            Some(&seeds) => seeds,
+            None => {
+                let seeds = PairSeeds::of(self.seed, pair);
+                self.seeds.push(seeds);
+                seeds
+            }
+        };
+        (seeds, scramble_reversed(self.index_reversed, seeds.index))
     }
 }
 
@@ -287,9 +320,26 @@ impl Rng {
     pub fn sobol(seed: u64, stream: u64, index: u32) -> Rng {
         let words = [seed as u32, (seed >> 32) as u32, stream as u32, (stream >> 32) as u32];
         let hashed = words.into_iter().fold(0x5eed_u32, mix);
-        Rng {
-            sobol: Some(Sobol { index_reversed: index.reverse_bits(), seed: hashed, pair: 0 }),
-            ..Rng::new(seed, stream)
+        let pcg = Rng::new(seed, stream);
+        let sobol = Sobol {
+            index_reversed: index.reverse_bits(),
+            seed: hashed,
+            pair: 0,
+            seeds: Vec::new(),
+            start_state: pcg.state,
+        };
+        Rng { sobol: Some(sobol), ..pcg }
+    }
+
+    /// This stream at another sample `index` of its stream: what
+    /// [`Rng::sobol`] with the same seed and stream makes, number for
+    /// number, without hashing again the pair seeds its samples share.
+    /// A stream of independent numbers is left as it is.
+    pub fn restart(&mut self, index: u32) {
+        if let Some(sobol) = &mut self.sobol {
+            sobol.index_reversed = index.reverse_bits();
+            sobol.pair = 0;
+            self.state = sobol.start_state;
         }
     }
 
@@ -509,16 +559,61 @@ mod tests {
         let mut rng = Rng::new(8, 8);
         for _ in 0..2000 {
             let (seed, index) = (rng.next_u32(), rng.next_u32() % 1024);
-            let mut sobol = Sobol { index_reversed: index.reverse_bits(), seed, pair: 0 };
+            let mut sobol = Sobol {
+                index_reversed: index.reverse_bits(),
+                seed,
+                pair: 0,
+                seeds: Vec::new(),
+                start_state: 0,
+            };
             for pair in 0..4 {
                 assert_eq!(sobol.next_pair(), by_definition(seed, index, pair));
             }
             // One number alone is its pair's x coordinate, and uses up the pair.
-            let mut sobol = Sobol { index_reversed: index.reverse_bits(), seed, pair: 0 };
+            let mut sobol = Sobol {
+                index_reversed: index.reverse_bits(),
+                seed,
+                pair: 0,
+                seeds: Vec::new(),
+                start_state: 0,
+            };
             for pair in 0..4 {
                 assert_eq!(sobol.next_one(), by_definition(seed, index, pair).x);
             }
         }
+    }
+
+    #[test]
+    fn a_restarted_stream_draws_what_a_new_one_does() {
+        // Samples of one pixel drawing different numbers of pairs, single
+        // numbers and PCG words, through one stream restarted at each.
+        let draw = |rng: &mut Rng, sample: u32| -> Vec<u32> {
+            (0..(sample * 7 % 13) + 1)
+                .flat_map(|k| match k % 3 {
+                    0 => {
+                        let p = rng.uniform2();
+                        vec![p.x.to_bits(), p.y.to_bits()]
+                    }
+                    1 => vec![rng.uniform().to_bits()],
+                    _ => vec![rng.next_u32()],
+                })
+                .collect()
+        };
+        let mut restarted = Rng::sobol(4, 77, 0);
+        for sample in 0..40 {
+            restarted.restart(sample);
+            assert_eq!(
+                draw(&mut restarted, sample),
+                draw(&mut Rng::sobol(4, 77, sample), sample),
+                "sample {sample}"
+            );
+        }
+        // An independent stream goes on.
+        let (mut a, mut b) = (Rng::new(1, 2), Rng::new(1, 2));
+        a.next_u32();
+        a.restart(5);
+        b.next_u32();
+        assert_eq!(a.next_u32(), b.next_u32());
     }
 
     #[test]

@@ -86,6 +86,8 @@ pub fn average_over_pixel(
         ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height)
     };
     let mut sum = Sample::default();
+    // The pixel's Sobol stream, restarted at each sample.
+    let mut stream: Option<Rng> = None;
     for i in range.first..range.first + range.count {
         sum += match c.sampler {
             SamplerKind::Independent => {
@@ -94,9 +96,15 @@ pub fn average_over_pixel(
                 radiance(camera_ray(offset), rng)
             }
             SamplerKind::Sobol => {
-                let mut sample = Rng::sobol(c.seed, y as u64 * c.width as u64 + x as u64, i);
+                let sample = match &mut stream {
+                    Some(sample) => {
+                        sample.restart(i);
+                        sample
+                    }
+                    None => stream.insert(Rng::sobol(c.seed, y as u64 * c.width as u64 + x as u64, i)),
+                };
                 let offset = sample.uniform2();
-                radiance(camera_ray(offset), &mut sample)
+                radiance(camera_ray(offset), sample)
             }
         };
     }
