@@ -9,18 +9,18 @@ Every object goes over as the very triangles caustix renders (`caustix
 export` writes each to a PLY file, with its normals), so the two renderers
 see the same geometry and shading normals. What maps exactly:
 
-- materials made of Lambertian `diffuse`, `mirror` and `transmittance`
-  (a smooth dielectric of index `ior`) parts: Mitsuba's `diffuse`,
-  `conductor` (no absorption, scaled by the part) and `dielectric`, several
-  parts as an equal blend of each scaled by their number;
+- materials of one part, Lambertian `diffuse`, `mirror` or
+  `transmittance` (a smooth dielectric of index `ior`): Mitsuba's `diffuse`
+  and `conductor` (no absorption, scaled by the part), both two-sided as
+  caustix's are, and `dielectric`;
 - area lights (one-sided, radiance power / (pi area), a black back that
   blocks light), point lights (intensity power / (4 pi));
 - the pinhole camera (vertical field of view), a box pixel filter, and the
   longest path: caustix's `max_depth` rays from the camera, each hit lit
   by a light sample, is Mitsuba's `max_depth + 1` segments.
 
-What does not (the Phong lobe `specular`, spot lights, ambient light) is
-refused with a message rather than approximated. Mitsuba's path tracer
+What does not (the Phong lobe `specular`, materials of several parts, spot
+lights, ambient light) is refused with a message rather than approximated. Mitsuba's path tracer
 finds a point light's caustics no better than caustix's path tracer: it
 has no path for light through glass from a point light, so for scenes that
 have such light its image lacks it.
@@ -77,40 +77,50 @@ def bsdf_of(scene, name, material):
         refuse(scene, f"material `{name}` has {sorted(unknown)}, which this script does not know")
     if any(c > 0 for c in rgb(material.get("specular", 0.0))):
         refuse(scene, f"material `{name}` has a Phong lobe (`specular`), which Mitsuba 3 has no BSDF for")
+    # Each part as (its colour, the BSDF of a colour).
     parts = []
     diffuse = rgb(material.get("diffuse", 0.0))
-    if any(c > 0 for c in diffuse):
-        parts.append(lambda k: {"type": "diffuse", "reflectance": {"type": "rgb", "value": [k * c for c in diffuse]}})
+    # caustix's diffuse and mirror parts act on the side a ray comes from;
+    # Mitsuba's are black from behind unless made two-sided.
+    parts.append(
+        (diffuse, lambda c: {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": c}}})
+    )
     mirror = rgb(material.get("mirror", 0.0))
-    if any(c > 0 for c in mirror):
-        parts.append(
-            lambda k: {
-                "type": "conductor",
-                "material": "none",
-                "specular_reflectance": {"type": "rgb", "value": [k * c for c in mirror]},
-            }
+    parts.append(
+        (
+            mirror,
+            lambda c: {
+                "type": "twosided",
+                "bsdf": {"type": "conductor", "material": "none", "specular_reflectance": {"type": "rgb", "value": c}},
+            },
         )
+    )
     transmittance = rgb(material.get("transmittance", 0.0))
-    if any(c > 0 for c in transmittance):
-        ior = float(material.get("ior", 1.5))
-        parts.append(
-            lambda k: {
+    ior = float(material.get("ior", 1.5))
+    parts.append(
+        (
+            transmittance,
+            lambda c: {
                 "type": "dielectric",
                 "int_ior": ior,
                 "ext_ior": 1.0,
-                "specular_reflectance": {"type": "rgb", "value": [k * c for c in transmittance]},
-                "specular_transmittance": {"type": "rgb", "value": [k * c for c in transmittance]},
-            }
+                "specular_reflectance": {"type": "rgb", "value": c},
+                "specular_transmittance": {"type": "rgb", "value": c},
+            },
         )
+    )
+    parts = [(colour, make) for colour, make in parts if max(colour) > 0]
+    if len(parts) > 1:
+        # Mitsuba's `blendbsdf` of a diffuse and a mirror BSDF (weights 0.4
+        # and 0.5) rendered a sphere 6-7% off the sum of the two parts
+        # rendered apart in two channels, where caustix's image of the same
+        # material held to that sum within 1-3% (BENCHMARKS.md): no exact
+        # counterpart, so none at all.
+        refuse(scene, f"material `{name}` has several parts; this script converts materials of one part only")
     if not parts:
         return {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.0, 0.0, 0.0]}}
-    # An equal blend of n parts, each scaled by n: the sum of the parts.
-    n = len(parts)
-    bsdf = parts[0](n)
-    for i, part in enumerate(parts[1:], start=2):
-        # Blending the first i - 1 (as one) with the i-th, weight 1/i on the new one.
-        bsdf = {"type": "blendbsdf", "weight": 1.0 / i, "bsdf_0": bsdf, "bsdf_1": part(n)}
-    return bsdf
+    colour, make = parts[0]
+    return make(colour)
 
 
 def export_object(caustix, scene_path, camera, kind, obj, out_ply, workdir):
