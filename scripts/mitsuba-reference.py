@@ -137,7 +137,9 @@ def export_object(caustix, scene_path, camera, kind, obj, out_ply, workdir):
     one = os.path.join(workdir, "one.toml")
     with open(one, "w") as f:
         f.write("\n".join(lines) + "\n")
-    subprocess.run([caustix, "export", one, "-o", out_ply], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    done = subprocess.run([caustix, "export", one, "-o", out_ply], capture_output=True, text=True)
+    if done.returncode != 0:
+        refuse(scene_path, f"[[{kind}]]: caustix could not export it: {done.stderr.strip()}")
 
 
 def write_quad_ply(path, center, u, v):
