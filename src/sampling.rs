@@ -227,6 +227,12 @@ fn fraction(bits: u32) -> f32 {
 }
 
 impl Sobol {
+    /// Sample `index` of the stream hashed to `seed`, whose PCG32 words
+    /// start from `start_state`.
+    fn new(seed: u32, index: u32, start_state: u64) -> Sobol {
+        Sobol { index_reversed: index.reverse_bits(), seed, pair: 0, seeds: Vec::new(), start_state }
+    }
+
     /// The pair: `index = owen_scramble(sample index)`, then the Sobol
     /// point at `index` with each coordinate Owen-scrambled, each with its
     /// own seed. The x coordinate is `index` reversed, so scrambling it
@@ -321,14 +327,7 @@ impl Rng {
         let words = [seed as u32, (seed >> 32) as u32, stream as u32, (stream >> 32) as u32];
         let hashed = words.into_iter().fold(0x5eed_u32, mix);
         let pcg = Rng::new(seed, stream);
-        let sobol = Sobol {
-            index_reversed: index.reverse_bits(),
-            seed: hashed,
-            pair: 0,
-            seeds: Vec::new(),
-            start_state: pcg.state,
-        };
-        Rng { sobol: Some(sobol), ..pcg }
+        Rng { sobol: Some(Sobol::new(hashed, index, pcg.state)), ..pcg }
     }
 
     /// This stream at another sample `index` of its stream: what
@@ -559,24 +558,12 @@ mod tests {
         let mut rng = Rng::new(8, 8);
         for _ in 0..2000 {
             let (seed, index) = (rng.next_u32(), rng.next_u32() % 1024);
-            let mut sobol = Sobol {
-                index_reversed: index.reverse_bits(),
-                seed,
-                pair: 0,
-                seeds: Vec::new(),
-                start_state: 0,
-            };
+            let mut sobol = Sobol::new(seed, index, 0);
             for pair in 0..4 {
                 assert_eq!(sobol.next_pair(), by_definition(seed, index, pair));
             }
             // One number alone is its pair's x coordinate, and uses up the pair.
-            let mut sobol = Sobol {
-                index_reversed: index.reverse_bits(),
-                seed,
-                pair: 0,
-                seeds: Vec::new(),
-                start_state: 0,
-            };
+            let mut sobol = Sobol::new(seed, index, 0);
             for pair in 0..4 {
                 assert_eq!(sobol.next_one(), by_definition(seed, index, pair).x);
             }
