@@ -168,8 +168,8 @@ def mitsuba_scene(args, scene, workdir):
     if scene.get("spot_light"):
         refuse(path, "spot lights fall off differently in Mitsuba; this script does not convert them")
     max_depth = int(render.get("max_depth", 10))
-    width = args.width or int(image.get("width", 512))
-    height = args.height or int(image.get("height", 512))
+    width = args.width or int(image.get("width", 640))
+    height = args.height or int(image.get("height", 480))
     up = camera.get("up", [0.0, 1.0, 0.0])
 
     import mitsuba as mi
