@@ -79,11 +79,13 @@ struct Sobol {
     seed: u32,
     /// The next dimension pair to hand out.
     pair: u32,
-    /// The seeds of the pairs drawn so far by this stream's samples: the
-    /// same for every sample of a pixel, so a stream restarted at its next
-    /// sample ([`Rng::restart`]) hashes them once (four hashes a pair, a
-    /// third of the Sobol points' cost in the path tracer: BENCHMARKS.md).
-    seeds: Vec<PairSeeds>,
+    /// The seeds of the pairs drawn so far by this stream's samples, if it
+    /// keeps them ([`Rng::sobol_kept`]): the same for every sample of a
+    /// pixel, so a stream restarted at its next sample ([`Rng::restart`])
+    /// hashes them once (four hashes a pair, a third of the Sobol points'
+    /// cost in the path tracer: BENCHMARKS.md). A stream drawn for one
+    /// sample keeps none, and allocates nothing.
+    seeds: Option<Vec<PairSeeds>>,
     /// The PCG32 state the stream starts from (its [`Rng::next_u32`]).
     start_state: u64,
 }
@@ -229,8 +231,9 @@ fn fraction(bits: u32) -> f32 {
 impl Sobol {
     /// Sample `index` of the stream hashed to `seed`, whose PCG32 words
     /// start from `start_state`.
-    fn new(seed: u32, index: u32, start_state: u64) -> Sobol {
-        Sobol { index_reversed: index.reverse_bits(), seed, pair: 0, seeds: Vec::new(), start_state }
+    fn new(seed: u32, index: u32, start_state: u64, keep: bool) -> Sobol {
+        let seeds = keep.then(Vec::new);
+        Sobol { index_reversed: index.reverse_bits(), seed, pair: 0, seeds, start_state }
     }
 
     /// The pair: `index = owen_scramble(sample index)`, then the Sobol
@@ -259,13 +262,16 @@ impl Sobol {
         let pair = self.pair;
         self.pair += 1;
         // Pairs are drawn in order: one not kept yet is the next to keep.
-        let seeds = match self.seeds.get(pair as usize) {
-            Some(&seeds) => seeds,
-            None => {
-                let seeds = PairSeeds::of(self.seed, pair);
-                self.seeds.push(seeds);
-                seeds
-            }
+        let seeds = match &mut self.seeds {
+            None => PairSeeds::of(self.seed, pair),
+            Some(kept) => match kept.get(pair as usize) {
+                Some(&seeds) => seeds,
+                None => {
+                    let seeds = PairSeeds::of(self.seed, pair);
+                    kept.push(seeds);
+                    seeds
+                }
+            },
         };
         (seeds, scramble_reversed(self.index_reversed, seeds.index))
     }
@@ -324,16 +330,28 @@ impl Rng {
     /// successive dimensions of padded Owen-scrambled Sobol points (see
     /// `Sobol`); [`Rng::next_u32`] stays PCG32.
     pub fn sobol(seed: u64, stream: u64, index: u32) -> Rng {
+        Rng::sobol_keeping(seed, stream, index, false)
+    }
+
+    /// [`Rng::sobol`], number for number, for a pixel's samples to share:
+    /// [`Rng::restart`] it at each next sample, and it hashes the seeds of
+    /// the dimension pairs, the same for every sample, only once.
+    pub fn sobol_kept(seed: u64, stream: u64, index: u32) -> Rng {
+        Rng::sobol_keeping(seed, stream, index, true)
+    }
+
+    fn sobol_keeping(seed: u64, stream: u64, index: u32, keep: bool) -> Rng {
         let words = [seed as u32, (seed >> 32) as u32, stream as u32, (stream >> 32) as u32];
         let hashed = words.into_iter().fold(0x5eed_u32, mix);
         let pcg = Rng::new(seed, stream);
-        Rng { sobol: Some(Sobol::new(hashed, index, pcg.state)), ..pcg }
+        Rng { sobol: Some(Sobol::new(hashed, index, pcg.state, keep)), ..pcg }
     }
 
     /// This stream at another sample `index` of its stream: what
     /// [`Rng::sobol`] with the same seed and stream makes, number for
-    /// number, without hashing again the pair seeds its samples share.
-    /// A stream of independent numbers is left as it is.
+    /// number (without hashing again the pair seeds its samples share, if
+    /// made by [`Rng::sobol_kept`]). A stream of independent numbers is
+    /// left as it is.
     pub fn restart(&mut self, index: u32) {
         if let Some(sobol) = &mut self.sobol {
             sobol.index_reversed = index.reverse_bits();
@@ -558,12 +576,12 @@ mod tests {
         let mut rng = Rng::new(8, 8);
         for _ in 0..2000 {
             let (seed, index) = (rng.next_u32(), rng.next_u32() % 1024);
-            let mut sobol = Sobol::new(seed, index, 0);
+            let mut sobol = Sobol::new(seed, index, 0, index % 2 == 0);
             for pair in 0..4 {
                 assert_eq!(sobol.next_pair(), by_definition(seed, index, pair));
             }
             // One number alone is its pair's x coordinate, and uses up the pair.
-            let mut sobol = Sobol::new(seed, index, 0);
+            let mut sobol = Sobol::new(seed, index, 0, index % 2 == 0);
             for pair in 0..4 {
                 assert_eq!(sobol.next_one(), by_definition(seed, index, pair).x);
             }
@@ -586,14 +604,16 @@ mod tests {
                 })
                 .collect()
         };
-        let mut restarted = Rng::sobol(4, 77, 0);
-        for sample in 0..40 {
-            restarted.restart(sample);
-            assert_eq!(
-                draw(&mut restarted, sample),
-                draw(&mut Rng::sobol(4, 77, sample), sample),
-                "sample {sample}"
-            );
+        // Kept seeds or not, a restarted stream is a new one.
+        for mut restarted in [Rng::sobol_kept(4, 77, 0), Rng::sobol(4, 77, 0)] {
+            for sample in 0..40 {
+                restarted.restart(sample);
+                assert_eq!(
+                    draw(&mut restarted, sample),
+                    draw(&mut Rng::sobol(4, 77, sample), sample),
+                    "sample {sample}"
+                );
+            }
         }
         // An independent stream goes on.
         let (mut a, mut b) = (Rng::new(1, 2), Rng::new(1, 2));

@@ -101,7 +101,7 @@ pub fn average_over_pixel(
                         sample.restart(i);
                         sample
                     }
-                    None => stream.insert(Rng::sobol(c.seed, y as u64 * c.width as u64 + x as u64, i)),
+                    None => stream.insert(Rng::sobol_kept(c.seed, y as u64 * c.width as u64 + x as u64, i)),
                 };
                 let offset = sample.uniform2();
                 radiance(camera_ray(offset), sample)
