@@ -127,9 +127,8 @@ def export_object(caustix, scene_path, camera, kind, obj, out_ply, workdir):
     """The triangles of one object, as caustix makes them, into `out_ply`."""
     obj = dict(obj)
     obj["material"] = "m"
-    if kind == "mesh":
-        obj["file"] = os.path.join(os.path.dirname(os.path.abspath(scene_path)), obj["file"])
-    if kind == "teapot" and "file" in obj:
+    if "file" in obj:
+        # A mesh's or a teapot's file, relative to the scene file.
         obj["file"] = os.path.join(os.path.dirname(os.path.abspath(scene_path)), obj["file"])
     lines = ["[camera]"] + [f"{k} = {toml_value(v)}" for k, v in camera.items()]
     lines += ["[materials.m]", "diffuse = 0.5", f"[[{kind}]]"]
