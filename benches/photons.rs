@@ -49,6 +49,7 @@ fn main() {
     let start = Instant::now();
     let stored =
         trace(&SceneQuery::new(&scene, accel.as_ref()), Pass::Caustic, 200_000, 16, 0, scene.config.sampler)
+            .0
             .len();
     println!(
         "caustic pass on the diffuse-only Cornell box (skipped by the renderer): {:.3} s for 200000 photons, {stored} stored",
@@ -60,6 +61,7 @@ fn main() {
     let start = Instant::now();
     let stored =
         trace(&SceneQuery::new(&scene, accel.as_ref()), Pass::Caustic, 400_000, 16, 3, scene.config.sampler)
+            .0
             .len();
     println!(
         "ball lens, caustic photons aimed at the ball: {stored} stored of 400000 emitted in {:.3} s \

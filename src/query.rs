@@ -15,7 +15,8 @@ use crate::scene::Scene;
 /// Rays traced, for the summary line of a render.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
 pub struct RayCount {
-    /// Rays traced to their closest hit (camera, reflection, refraction, gather).
+    /// Rays traced to their closest hit (camera, reflection, refraction,
+    /// gather, photon).
     pub closest: u64,
     /// Shadow rays.
     pub shadow: u64,

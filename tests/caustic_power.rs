@@ -147,7 +147,7 @@ fn scene_seen_by(view: &str, floor: f64, light: &str) -> Scene {
 fn measured(scene: &Scene, photons: u32) -> f64 {
     let accel = build(Backend::Embree, &scene.triangle_views()).unwrap();
     let query = SceneQuery::new(scene, accel.as_ref());
-    let sums = emit(
+    let (sums, _) = emit(
         &query,
         photons,
         8,

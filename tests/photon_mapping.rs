@@ -29,7 +29,7 @@ fn stored_power_is_the_lights_power_times_the_bounce_series() {
     // absorbed: expected stored power = power * (1 + a + a^2 + ...) = power / (1 - a).
     for albedo in [0.3f32, 0.7] {
         let scene = furnace(albedo);
-        let photons = trace(
+        let (photons, _) = trace(
             &SceneQuery::new(&scene, accel(&scene).as_ref()),
             Pass::Global { keep_direct: true },
             200_000,
@@ -55,6 +55,7 @@ fn stored_power_is_the_lights_power_times_the_bounce_series() {
             1,
             scene.config.sampler,
         )
+        .0
         .iter()
         .map(|p| p.power.x)
         .sum();
@@ -83,14 +84,17 @@ fn global_map_converges_to_the_exact_indirect_light() {
     let mesh = &scene.meshes[0];
     let mut errors = Vec::new();
     for photons in [2_000u32, 20_000, 200_000] {
-        let map = PhotonMap::new(trace(
-            &SceneQuery::new(&scene, accel.as_ref()),
-            Pass::Global { keep_direct: false },
-            photons,
-            64,
-            7,
-            scene.config.sampler,
-        ));
+        let map = PhotonMap::new(
+            trace(
+                &SceneQuery::new(&scene, accel.as_ref()),
+                Pass::Global { keep_direct: false },
+                photons,
+                64,
+                7,
+                scene.config.sampler,
+            )
+            .0,
+        );
         let k = (photons as f32).sqrt() as usize;
         let estimate = Estimate { k, max_radius: 1.0, cone_filter: None };
         // Mean relative error at 200 points spread over the sphere.
@@ -154,14 +158,10 @@ fn a_glass_ball_focuses_light_where_geometric_optics_puts_it() {
     let focus = centre + axis * 1.6216;
     let scene = ball_lens(focus.y);
     let accel = accel(&scene);
-    let map = PhotonMap::new(trace(
-        &SceneQuery::new(&scene, accel.as_ref()),
-        Pass::Caustic,
-        400_000,
-        16,
-        3,
-        scene.config.sampler,
-    ));
+    let map = PhotonMap::new(
+        trace(&SceneQuery::new(&scene, accel.as_ref()), Pass::Caustic, 400_000, 16, 3, scene.config.sampler)
+            .0,
+    );
     let estimate = Estimate { k: 100, max_radius: 0.05, cone_filter: None };
 
     // Scan the floor along x through the expected focus.
@@ -248,7 +248,7 @@ fn photons_stop_at_the_front_of_an_area_light() {
         material = "white"
     "#;
     let scene = Scene::from_toml(text, Path::new("panel.toml")).unwrap();
-    let photons = trace(
+    let (photons, _) = trace(
         &SceneQuery::new(&scene, accel(&scene).as_ref()),
         Pass::Global { keep_direct: true },
         100_000,
@@ -270,7 +270,7 @@ fn photons_stop_at_the_front_of_an_area_light() {
 fn on_the_tile(scene: &Scene, count: u32, numbers: PhotonNumbers) -> f64 {
     let accel = accel(scene);
     let query = SceneQuery::new(scene, accel.as_ref());
-    let landed = emit(
+    let (landed, rays) = emit(
         &query,
         count,
         1,
@@ -285,6 +285,8 @@ fn on_the_tile(scene: &Scene, count: u32, numbers: PhotonNumbers) -> f64 {
             false
         },
     );
+    // One bounce at most: each photon traces one ray, counted.
+    assert_eq!((rays.closest, rays.shadow), (count as u64, 0));
     landed.into_iter().sum::<u32>() as f64
 }
 
@@ -376,4 +378,43 @@ fn guided_gathering_finds_a_hot_spot_with_less_noise_and_the_same_mean() {
     // antialiasing noise, the same for both); the means within 0.13%.
     assert!(e_guided < 0.8 * e_unguided, "guided {e_guided} against unguided {e_unguided}");
     assert!(bias.abs() < 0.005, "guided gathering changed the mean by {bias}");
+}
+
+/// A render's ray count holds the rays its photons traced: photon mapping's
+/// maps (none when the maps were traced beforehand and handed to it) and
+/// every pass of SPPM with its first batch.
+#[test]
+fn a_render_counts_the_rays_its_photons_trace() {
+    use caustix::config::IntegratorKind;
+    use caustix::integrator::{render_with_maps, Context};
+    let scene = point_lit_cornell();
+    let accel = accel(&scene);
+    let mut settings = RenderConfig { width: 8, height: 8, samples: 1, ..scene.config.clone() };
+    settings.photons.global_photons = 5_000;
+    settings.photons.caustic_photons = 5_000;
+    let query = SceneQuery::new(&scene, accel.as_ref());
+    let maps = caustix::photon::build_maps(
+        &query,
+        &settings.photons,
+        settings.seed,
+        settings.sampler,
+        Context::diagonal_of(&scene),
+    );
+    // Every photon traces a ray at least: 10,000 of them.
+    assert!(maps.stats.rays.closest >= 10_000, "{:?}", maps.stats.rays);
+    let rays =
+        |maps| render_with_maps(&scene, accel.as_ref(), &settings, maps, &|_| {}, None).unwrap().stats.rays;
+    let (traced_here, handed) = (rays(None), rays(Some(&maps)));
+    // The same maps either way (the same seed): the difference is their rays.
+    assert_eq!(traced_here.closest, handed.closest + maps.stats.rays.closest);
+    assert_eq!(traced_here.shadow, handed.shadow + maps.stats.rays.shadow);
+
+    let mut sppm = RenderConfig { integrator: IntegratorKind::Sppm, ..settings.clone() };
+    sppm.photons.sppm.passes = 3;
+    sppm.photons.sppm.photons_per_pass = 4_000;
+    let rendered = render_with_maps(&scene, accel.as_ref(), &sppm, None, &|_| {}, None).unwrap();
+    // Three passes and the batch for the starting radii: 16,000 photons,
+    // beside 8 x 8 pixels' two camera paths a pass.
+    let closest = rendered.stats.rays.closest;
+    assert!(closest >= 16_000 + 3 * 2 * 64, "{closest}");
 }

@@ -66,7 +66,7 @@ pub fn measure(
     for (i, &emitted) in counts.iter().enumerate() {
         let start = Instant::now();
         let query = crate::query::SceneQuery::new(scene, accel);
-        let photons =
+        let (photons, _) =
             trace(&query, Pass::Global { keep_direct: true }, emitted, 16, 0, SamplerKind::default());
         let trace_seconds = start.elapsed().as_secs_f64();
         let stored = photons.len();

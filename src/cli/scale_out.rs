@@ -61,12 +61,13 @@ pub fn photons(args: PhotonsArgs) -> anyhow::Result<()> {
     }
     let size = std::fs::metadata(&output).map_or(0, |m| m.len());
     eprintln!(
-        "{}: {} global and {} caustic photons emitted, traced in {:.2} s, maps built in {:.2} s, saved in {:.2} s \
-         ({:.1} MiB)",
+        "{}: {} global and {} caustic photons emitted, traced in {:.2} s ({} rays), maps built in {:.2} s, \
+         saved in {:.2} s ({:.1} MiB)",
         output.display(),
         s.global_emitted,
         s.caustic_emitted,
         s.trace_seconds,
+        s.rays.closest,
         s.build_seconds,
         start.elapsed().as_secs_f64(),
         size as f64 / (1 << 20) as f64

@@ -92,8 +92,9 @@ impl Integrator for PhotonMapping {
             crate::memory::Estimate::of(ctx.scene(), &scaled).check(available).is_ok()
         };
         let (mut spent, mut factor) = (seconds(&maps), 1.0);
-        // Every step's time, reported with the last maps.
+        // Every step's time and rays, reported with the last maps.
         let (mut traced, mut built) = (maps.stats.trace_seconds, maps.stats.build_seconds);
+        let mut rays = maps.stats.rays;
         while let Some(next) = grow_photons(target, spent, seconds(&maps), factor) {
             // The most that fit in memory, halving down to twice the last.
             let fitting = std::iter::successors(Some(next), |f| Some(f / 2.0))
@@ -109,9 +110,10 @@ impl Integrator for PhotonMapping {
             spent += seconds(&more);
             traced += more.stats.trace_seconds;
             built += more.stats.build_seconds;
+            rays += more.stats.rays;
             (maps, factor) = (more, next);
         }
-        (maps.stats.trace_seconds, maps.stats.build_seconds) = (traced, built);
+        (maps.stats.trace_seconds, maps.stats.build_seconds, maps.stats.rays) = (traced, built, rays);
         Some(maps)
     }
 
@@ -154,7 +156,13 @@ impl Integrator for PhotonMapping {
             )
         }];
         notes.extend(s.skipped.iter().map(|line| format!("photons: {line}")));
-        tracer.render(progress, notes)
+        let mut rendered = tracer.render(progress, notes);
+        // The photons' rays count where this render traced them (given
+        // maps were traced before it, or by the caller, who counts them).
+        if ctx.photon_maps.is_none() {
+            rendered.stats.rays += s.rays;
+        }
+        rendered
     }
 }
 

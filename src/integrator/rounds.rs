@@ -204,7 +204,8 @@ pub(super) fn render_to_time(
     let pixels = region.pixels();
     let mut tally = Tally::new(region.width() as usize, pixels as usize);
     let mut first: Option<Rendered> = None;
-    let mut rays = RayCount::default();
+    // The photons' rays where the maps were traced for this render.
+    let mut rays = built.as_ref().map_or(RayCount::default(), |maps| maps.stats.rays);
     // Where the stochastic rounding of noise-following rounds draws from.
     let mut rng = Rng::new(ctx.config.seed, 0x726f_756e_6473);
     let (mut rounds, mut even_spp, mut next) = (0u32, 0u32, pixels);

@@ -31,6 +31,7 @@ use super::map::{IrradianceRecord, Photon, PhotonMap};
 use super::{PhotonMaps, PhotonStats};
 use crate::config::RenderConfig;
 use crate::error::{Error, Result};
+use crate::query::RayCount;
 use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
@@ -311,6 +312,8 @@ impl Reader<'_> {
             caustic_emitted: self.u64()?,
             trace_seconds: self.f64()?,
             build_seconds: self.f64()?,
+            // Rays traced now: none (`loaded`).
+            rays: RayCount::default(),
             skipped: {
                 let n = self.count(4)?;
                 let mut notes = Vec::with_capacity(n);

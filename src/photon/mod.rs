@@ -51,6 +51,8 @@ pub struct PhotonStats {
     pub trace_seconds: f64,
     /// Seconds spent building the kd-trees.
     pub build_seconds: f64,
+    /// Rays the photons traced (none for maps loaded from a file).
+    pub rays: RayCount,
     /// One line per map that was not built, saying why.
     pub skipped: Vec<String>,
     /// Whether the maps were loaded from a file rather than traced now.
@@ -106,8 +108,9 @@ pub fn build_maps(
     // Traces a map's photons.
     let traced = |pass: Pass, count: u32, stats: &mut PhotonStats| {
         let start = Instant::now();
-        let photons = trace(query, pass, count, settings.max_bounces, seed, sampler);
+        let (photons, rays) = trace(query, pass, count, settings.max_bounces, seed, sampler);
         stats.trace_seconds += start.elapsed().as_secs_f64();
+        stats.rays += rays;
         photons
     };
 
@@ -245,7 +248,8 @@ pub struct Arrival {
 }
 
 /// Emits `count` photons in total from all lights (shared in proportion to
-/// their power), traces them, and returns the photons `pass` keeps.
+/// their power), traces them, and returns the photons `pass` keeps and the
+/// rays they traced.
 ///
 /// For the caustic pass, point and spot lights aim their photons at the
 /// bounding spheres of mirror and glass meshes (Jensen's projection maps,
@@ -259,9 +263,9 @@ pub fn trace(
     max_bounces: u32,
     seed: u64,
     sampler: SamplerKind,
-) -> Vec<Photon> {
+) -> (Vec<Photon>, RayCount) {
     let stream_seed = seed ^ if pass == Pass::Caustic { 0xC0FFEE } else { 0x61_0BA1 };
-    let chunks = emit(
+    let (chunks, rays) = emit(
         query,
         count,
         max_bounces,
@@ -280,7 +284,7 @@ pub fn trace(
             pass != Pass::Caustic
         },
     );
-    chunks.into_iter().flatten().collect()
+    (chunks.into_iter().flatten().collect(), rays)
 }
 
 /// Where each photon's random numbers come from.
@@ -358,7 +362,8 @@ const CHUNK: u64 = 4096;
 /// reaches and says whether the photon goes on. Photon `i` draws its
 /// random numbers as `numbers` says; the photons are split into chunks of
 /// consecutive indices, each with its own state from `start`, returned in
-/// index order, so the result never depends on the thread count.
+/// index order, so the result never depends on the thread count; with them,
+/// the rays all the photons traced.
 ///
 /// With `aim_at_specular`, point and spot lights emit only towards mirror
 /// and glass meshes (see [`trace`]).
@@ -371,13 +376,13 @@ pub fn emit<T: Send>(
     aim_at_specular: bool,
     start: impl Fn() -> T + Sync,
     arrive: impl Fn(&mut T, &Arrival) -> bool + Sync,
-) -> Vec<T> {
+) -> (Vec<T>, RayCount) {
     let scene = query.scene;
     // Photons per light, in proportion to power; each carries power / its count.
     let weights: Vec<f32> = scene.lights.iter().map(|l| l.power().element_sum()).collect();
     let total: f32 = weights.iter().sum();
     if total <= 0.0 || count == 0 {
-        return Vec::new();
+        return (Vec::new(), RayCount::default());
     }
     let mut per_light: Vec<u64> =
         weights.iter().map(|w| (count as f64 * (*w / total) as f64).round() as u64).collect();
@@ -404,10 +409,11 @@ pub fn emit<T: Send>(
         .collect();
 
     let sequences = numbers.sequences(scene.lights.len());
-    (0..emitted.div_ceil(CHUNK))
+    let (chunks, counts): (Vec<T>, Vec<RayCount>) = (0..emitted.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
             let mut state = start();
+            let mut rays = RayCount::default();
             for index in chunk * CHUNK..((chunk + 1) * CHUNK).min(emitted) {
                 let light = starts.partition_point(|&s| s <= index) - 1;
                 let (u, v, mut rng) = numbers.light_sample(light, index, &sequences);
@@ -422,29 +428,36 @@ pub fn emit<T: Send>(
                     None => scene.lights[light].emit(u, v),
                 };
                 let power = power / per_light[light] as f32;
-                trace_photon(query, ray, power, max_bounces, &mut rng, &mut |a| arrive(&mut state, a));
+                trace_photon(query, ray, power, max_bounces, &mut rng, &mut rays, &mut |a| {
+                    arrive(&mut state, a)
+                });
             }
-            state
+            (state, rays)
         })
-        .collect()
+        .unzip();
+    let mut rays = RayCount::default();
+    for c in counts {
+        rays += c;
+    }
+    (chunks, rays)
 }
 
 /// Follows one photon, showing it to `arrive` at every diffuse or glossy
 /// surface until `arrive` says stop, the photon is absorbed, or it has made
-/// `max_bounces` bounces.
+/// `max_bounces` bounces. Its rays are added to `count`.
 fn trace_photon(
     query: &SceneQuery,
     mut ray: Ray,
     mut power: Vec3,
     max_bounces: u32,
     rng: &mut Rng,
+    count: &mut RayCount,
     arrive: &mut dyn FnMut(&Arrival) -> bool,
 ) {
     let (mut diffuse_bounces, mut specular_bounces) = (0u32, 0u32);
-    let mut count = RayCount::default(); // photon rays are not reported
     for _ in 0..max_bounces {
         // The front of an area light absorbs photons, as camera paths see it.
-        let Some(Interaction::Surface(sp)) = query.first(&ray, &mut count) else { return };
+        let Some(Interaction::Surface(sp)) = query.first(&ray, count) else { return };
         let m = query.material(&sp);
         let dir = ray.dir.normalize();
 

@@ -343,12 +343,12 @@ impl<'a> Progressive<'a> {
             })
             .collect();
         let start = Instant::now();
-        let density = config
-            .photons
-            .sppm
-            .initial_radius
-            .is_none()
-            .then(|| Density::new(density_positions(ctx), ctx.diagonal * 1e-4, ctx.diagonal / 25.0));
+        let mut rays = RayCount::default();
+        let density = config.photons.sppm.initial_radius.is_none().then(|| {
+            let (positions, density_rays) = density_positions(ctx);
+            rays = density_rays;
+            Density::new(positions, ctx.diagonal * 1e-4, ctx.diagonal / 25.0)
+        });
         let photon_seconds = start.elapsed().as_secs_f64();
         Progressive {
             ctx: *ctx,
@@ -356,7 +356,7 @@ impl<'a> Progressive<'a> {
             passes: 0,
             emitted: 0,
             longest: (0.0, 0.0),
-            rays: RayCount::default(),
+            rays,
             photon_seconds,
             density,
         }
@@ -407,7 +407,8 @@ impl<'a> Progressive<'a> {
         let ctx = self.ctx;
         let per_pass = ctx.config.photons.sppm.photons_per_pass;
         let photons = ((per_pass as f64 * fraction).round() as u32).clamp(1, per_pass);
-        let gathered = self.gather_photons(&points, photons);
+        let (gathered, photon_rays) = self.gather_photons(&points, photons);
+        self.rays += photon_rays;
         let photon_seconds = start.elapsed().as_secs_f64();
         self.photon_seconds += photon_seconds;
         if photons == per_pass && camera_seconds + photon_seconds > self.longest.0 + self.longest.1 {
@@ -546,9 +547,10 @@ impl<'a> Progressive<'a> {
     /// pixel, the flux its visible point gathers. Each point finds the
     /// photons within its radius (`RangeSearch`) and adds them in the order
     /// they were emitted, so the sums do not depend on the thread count.
-    fn gather_photons(&self, points: &[Option<VisiblePoint>], photons: u32) -> Vec<Gathered> {
+    /// Also returns the photons' rays.
+    fn gather_photons(&self, points: &[Option<VisiblePoint>], photons: u32) -> (Vec<Gathered>, RayCount) {
         if !points.iter().flatten().any(|vp| vp.radius > 0.0) {
-            return vec![Gathered::default(); points.len()];
+            return (vec![Gathered::default(); points.len()], RayCount::default());
         }
         let scene = self.ctx.scene();
         let config = self.ctx.config;
@@ -567,7 +569,7 @@ impl<'a> Progressive<'a> {
         // Each photon where it lands, in the order emitted (a photon that
         // bounced off no diffuse or glossy surface before, `!indirect`, is
         // caustic light).
-        let chunks = emit(
+        let (chunks, rays) = emit(
             &self.ctx.query,
             photons,
             config.photons.max_bounces,
@@ -632,7 +634,7 @@ impl<'a> Progressive<'a> {
         for (i, g) in by_square.into_iter().flatten() {
             all[i] = g;
         }
-        all
+        (all, rays)
     }
 }
 
@@ -723,10 +725,10 @@ fn is_gathered(arrival: &Arrival) -> bool {
 }
 
 /// Where a batch of photons of its own (a pass's count) lands, of those a
-/// pass would gather.
-fn density_positions(ctx: &Context) -> Vec<Vec3> {
+/// pass would gather, and the rays the batch traced.
+fn density_positions(ctx: &Context) -> (Vec<Vec3>, RayCount) {
     let config = ctx.config;
-    let chunks = emit(
+    let (chunks, rays) = emit(
         &ctx.query,
         config.photons.sppm.photons_per_pass,
         config.photons.max_bounces,
@@ -744,7 +746,7 @@ fn density_positions(ctx: &Context) -> Vec<Vec3> {
             true
         },
     );
-    chunks.into_iter().flatten().collect()
+    (chunks.into_iter().flatten().collect(), rays)
 }
 
 /// Which of a pixel's camera paths a path is, for its Sobol samples. The
