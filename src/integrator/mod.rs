@@ -174,15 +174,26 @@ pub trait Integrator: Sync {
     }
 
     /// Settings for all the rounds of a render to a time budget, measured
-    /// on the scene with the maps built for them (`ctx.photon_maps`), and a
-    /// note for the summary; `None`: the settings as given.
-    fn tuned_for_time(&self, _ctx: &Context) -> Option<(RenderConfig, String)> {
+    /// on the scene with the maps built for them (`ctx.photon_maps`);
+    /// `None`: the settings as given.
+    fn tuned_for_time(&self, _ctx: &Context) -> Option<Tuned> {
         None
     }
 
     /// Renders the image: the samples of `ctx.samples`, or (SPPM) as many
     /// passes as the settings or the time budget ask.
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered;
+}
+
+/// Settings an integrator measured for a render to a time budget
+/// ([`Integrator::tuned_for_time`]).
+pub struct Tuned {
+    /// The settings for all the rounds.
+    pub config: RenderConfig,
+    /// A line for the summary saying what was measured and chosen.
+    pub note: String,
+    /// Rays the measuring traced (counted with the render's).
+    pub rays: RayCount,
 }
 
 /// The integrator of a kind: the one place integrators are registered.

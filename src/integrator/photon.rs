@@ -10,7 +10,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 use super::whitted::{SurfaceLight, WhittedTracer};
-use super::{Context, Integrator, Progress, Rendered};
+use super::{Context, Integrator, Progress, Rendered, Tuned};
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
 use crate::config::{Estimate, PhotonConfig, RenderConfig};
@@ -120,16 +120,16 @@ impl Integrator for PhotonMapping {
     /// With final gathering and a budget of at least 2 s (`PILOT_FROM_SECONDS`),
     /// the gather rays per camera sample that spend the budget best, from a
     /// pilot on the maps built (`gather_count`).
-    fn tuned_for_time(&self, ctx: &Context) -> Option<(RenderConfig, String)> {
+    fn tuned_for_time(&self, ctx: &Context) -> Option<Tuned> {
         let maps = ctx.photon_maps?;
         let budget = ctx.config.time? as f64;
         if !maps.for_gathering || maps.global.is_none() || budget < PILOT_FROM_SECONDS {
             return None;
         }
-        let (gather_rays, note) = gather_count::choose(ctx, &MapLight::new(ctx, maps), budget);
-        let mut tuned = ctx.config.clone();
-        tuned.photons.gather_rays = gather_rays;
-        Some((tuned, note))
+        let (gather_rays, note, rays) = gather_count::choose(ctx, &MapLight::new(ctx, maps), budget);
+        let mut config = ctx.config.clone();
+        config.photons.gather_rays = gather_rays;
+        Some(Tuned { config, note, rays })
     }
 
     fn render(&self, ctx: &Context, progress: &Progress) -> Rendered {

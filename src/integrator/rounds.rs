@@ -197,15 +197,19 @@ pub(super) fn render_to_time(
     let ctx = Context { photon_maps: ctx.photon_maps.or(built.as_ref()), ..*ctx };
     let tuned = integrator.tuned_for_time(&ctx);
     let ctx = match &tuned {
-        Some((config, _)) => Context { config, ..ctx },
+        Some(tuned) => Context { config: &tuned.config, ..ctx },
         None => ctx,
     };
     let region = ctx.config.region();
     let pixels = region.pixels();
     let mut tally = Tally::new(region.width() as usize, pixels as usize);
     let mut first: Option<Rendered> = None;
-    // The photons' rays where the maps were traced for this render.
+    // The photons' rays where the maps were traced for this render, and
+    // what measuring the settings traced.
     let mut rays = built.as_ref().map_or(RayCount::default(), |maps| maps.stats.rays);
+    if let Some(tuned) = &tuned {
+        rays += tuned.rays;
+    }
     // Where the stochastic rounding of noise-following rounds draws from.
     let mut rng = Rng::new(ctx.config.seed, 0x726f_756e_6473);
     let (mut rounds, mut even_spp, mut next) = (0u32, 0u32, pixels);
@@ -294,7 +298,7 @@ pub(super) fn render_to_time(
         )
     });
     rendered.stats.pixel_samples = Some(tally.count);
-    rendered.stats.notes.extend(tuned.map(|(_, note)| note));
+    rendered.stats.notes.extend(tuned.map(|tuned| tuned.note));
     rendered
 }
 

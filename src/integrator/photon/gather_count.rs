@@ -103,25 +103,33 @@ fn pilot_pixels(ctx: &Context, wanted: u32, seed: u64) -> Vec<(u32, u32)> {
 
 /// Each pixel's estimate from `samples` camera samples drawn with seed
 /// `seed`, each the light `radiance` finds along a camera ray, and the
-/// seconds they took.
+/// seconds they took; their rays are added to `rays`.
 fn estimates(
     ctx: &Context,
     pixels: &[(u32, u32)],
     (samples, seed): (u32, u64),
     radiance: impl Fn(&Context, &Ray, &mut Rng, &mut RayCount) -> Sample + Sync,
+    rays: &mut RayCount,
 ) -> (Vec<Sample>, f64) {
     let config = crate::RenderConfig { seed, ..ctx.config.clone() };
     let pilot = Context { config: &config, samples: SampleRange { first: 0, count: samples }, ..*ctx };
     let started = Instant::now();
-    let values = pixels
+    let (values, counts): (Vec<Sample>, Vec<RayCount>) = pixels
         .par_iter()
         .map(|&(x, y)| {
             let mut rng = Rng::new(seed, y as u64 * config.width as u64 + x as u64);
             let mut count = RayCount::default();
-            average_over_pixel(&pilot, (x, y), &mut rng, |ray, rng| radiance(&pilot, &ray, rng, &mut count))
+            let value = average_over_pixel(&pilot, (x, y), &mut rng, |ray, rng| {
+                radiance(&pilot, &ray, rng, &mut count)
+            });
+            (value, count)
         })
-        .collect();
-    (values, started.elapsed().as_secs_f64())
+        .unzip();
+    let seconds = started.elapsed().as_secs_f64();
+    for count in counts {
+        *rays += count;
+    }
+    (values, seconds)
 }
 
 /// Light seen straight along `ray`, or through mirrors and glass only:
@@ -153,8 +161,9 @@ fn variance_of(a: &[Sample], b: &[Sample], part: impl Fn(&Sample) -> Vec3) -> f6
 
 /// Runs the pilot for photon mapping with the maps of `light`, sized for a
 /// budget of `budget` seconds; returns the gather rays per sample to render
-/// with, and a note saying why.
-pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, String) {
+/// with, a note saying why, and the rays the pilot traced.
+pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, String, RayCount) {
+    let mut rays = RayCount::default();
     let wanted = (budget * PILOT_PIXELS_PER_SECOND).clamp(PILOT_PIXELS.0 as f64, PILOT_PIXELS.1 as f64);
     let started = Instant::now();
     let seed = ctx.config.seed.wrapping_add(PILOT_SEED);
@@ -165,8 +174,8 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
         emission: lights_seen(ctx, ray, 0, count),
         ..Sample::default()
     };
-    let (a, _) = estimates(ctx, &everywhere, (1, seed), seen);
-    let (b, _) = estimates(ctx, &everywhere, (1, seed.wrapping_add(1)), seen);
+    let (a, _) = estimates(ctx, &everywhere, (1, seed), seen, &mut rays);
+    let (b, _) = estimates(ctx, &everywhere, (1, seed.wrapping_add(1)), seen, &mut rays);
     // One sample's variance; that of the other estimates' PILOT_SAMPLES.
     let lights = variance_of(&a, &b, |s| s.emission) / PILOT_SAMPLES as f64;
     // All the rest, at a sparse set of pixels, at each count.
@@ -180,8 +189,9 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
             let traced = |ctx: &Context, ray: &Ray, rng: &mut Rng, count: &mut RayCount| {
                 WhittedTracer { ctx, ..tracer }.radiance(ray, 0, Vec3::ONE, rng, count)
             };
-            let (a, time_a) = estimates(ctx, &pixels, (PILOT_SAMPLES, seed), traced);
-            let (b, time_b) = estimates(ctx, &pixels, (PILOT_SAMPLES, seed.wrapping_add(1)), traced);
+            let (a, time_a) = estimates(ctx, &pixels, (PILOT_SAMPLES, seed), traced, &mut rays);
+            let (b, time_b) =
+                estimates(ctx, &pixels, (PILOT_SAMPLES, seed.wrapping_add(1)), traced, &mut rays);
             let rest = variance_of(&a, &b, |s| s.total() - s.emission);
             Trial { gather, variance: lights + rest, seconds: (time_a + time_b) / (2.0 * samples) }
         })
@@ -199,12 +209,37 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
         everywhere.len(),
         tried.join(", ")
     );
-    (best, note)
+    (best, note, rays)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pilot's rays count with the render's: at least a camera ray for
+    /// each of its samples (two of the lights seen at each pixel it looks
+    /// at; two estimates of `PILOT_SAMPLES` at each of its pixels for each
+    /// count it tries).
+    #[test]
+    fn the_pilot_counts_its_rays() {
+        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-point.toml");
+        let scene = crate::Scene::load(&file).unwrap();
+        let accel = crate::accel::build(crate::accel::Backend::Native, &scene.triangle_views()).unwrap();
+        let mut config =
+            crate::RenderConfig { width: 24, height: 16, time: Some(2.0), ..scene.config.clone() };
+        config.photons.global_photons = 2_000;
+        let ctx = Context::new(&scene, accel.as_ref(), &config);
+        let maps = crate::photon::build_maps(&ctx.query, &config.photons, 0, config.sampler, ctx.diagonal);
+        let ctx = Context { photon_maps: Some(&maps), ..ctx };
+        let (_, _, rays) = choose(&ctx, &MapLight::new(&ctx, &maps), 2.0);
+        let seed = config.seed.wrapping_add(PILOT_SEED);
+        let seen = pilot_pixels(&ctx, LIGHT_PILOT_PIXELS, seed).len() as u64;
+        let wanted = (2.0 * PILOT_PIXELS_PER_SECOND).clamp(PILOT_PIXELS.0 as f64, PILOT_PIXELS.1 as f64);
+        let tried = pilot_pixels(&ctx, wanted as u32, seed).len() as u64;
+        let camera_rays = 2 * seen + CANDIDATES.len() as u64 * 2 * tried * PILOT_SAMPLES as u64;
+        assert!(seen == 24 * 16 && tried > 0, "{seen}, {tried}");
+        assert!(rays.closest >= camera_rays, "{rays:?} for {camera_rays} camera rays");
+    }
 
     #[test]
     fn the_best_count_leaves_the_least_variance_for_the_time() {
