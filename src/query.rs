@@ -29,6 +29,15 @@ impl std::ops::AddAssign for RayCount {
     }
 }
 
+impl std::iter::Sum for RayCount {
+    fn sum<I: Iterator<Item = RayCount>>(counts: I) -> RayCount {
+        counts.fold(RayCount::default(), |mut all, c| {
+            all += c;
+            all
+        })
+    }
+}
+
 /// What a ray meets first.
 #[derive(Debug, Clone, Copy)]
 pub enum Interaction<'a> {

@@ -123,10 +123,7 @@ impl LightEdges {
             })
             .collect();
         let rays = |c: &RayCount| (c.closest + c.shadow) as f64;
-        let mut look_rays = RayCount::default();
-        for &c in &counts {
-            look_rays += c;
-        }
+        let look_rays: RayCount = counts.iter().copied().sum();
         let look_seconds = start.elapsed().as_secs_f64();
         let seconds_per_ray = look_seconds / rays(&look_rays).max(1.0);
         let edge_rays: f64 = pixels
@@ -203,9 +200,7 @@ impl LightEdges {
                 count
             })
             .collect();
-        for c in &refined {
-            *rays += *c;
-        }
+        *rays += refined.iter().copied().sum();
         Some(format!(
             "lights' edges: {} pixels took {extra} more samples of the lights they see",
             refined.len()

@@ -435,11 +435,7 @@ pub fn emit<T: Send>(
             (state, rays)
         })
         .unzip();
-    let mut rays = RayCount::default();
-    for c in counts {
-        rays += c;
-    }
-    (chunks, rays)
+    (chunks, counts.into_iter().sum())
 }
 
 /// Follows one photon, showing it to `arrive` at every diffuse or glossy

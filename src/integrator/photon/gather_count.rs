@@ -80,6 +80,12 @@ fn best_count(trials: &[Trial]) -> u32 {
         .map_or(CANDIDATES[0], |t| t.gather)
 }
 
+/// Pixels the pilot estimates at every gather count, for a budget of
+/// `budget` seconds.
+fn pilot_pixels_for(budget: f64) -> u32 {
+    (budget * PILOT_PIXELS_PER_SECOND).clamp(PILOT_PIXELS.0 as f64, PILOT_PIXELS.1 as f64) as u32
+}
+
 /// About `wanted` pixels of the region of `ctx`: one at a random place in
 /// each cell of a regular grid, so that thin features (a light's edges,
 /// where the noise is the greatest) are met as often as they cover the
@@ -126,9 +132,7 @@ fn estimates(
         })
         .unzip();
     let seconds = started.elapsed().as_secs_f64();
-    for count in counts {
-        *rays += count;
-    }
+    *rays += counts.into_iter().sum();
     (values, seconds)
 }
 
@@ -164,7 +168,6 @@ fn variance_of(a: &[Sample], b: &[Sample], part: impl Fn(&Sample) -> Vec3) -> f6
 /// with, a note saying why, and the rays the pilot traced.
 pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, String, RayCount) {
     let mut rays = RayCount::default();
-    let wanted = (budget * PILOT_PIXELS_PER_SECOND).clamp(PILOT_PIXELS.0 as f64, PILOT_PIXELS.1 as f64);
     let started = Instant::now();
     let seed = ctx.config.seed.wrapping_add(PILOT_SEED);
     // The lights seen, over (nearly) every pixel: cheap, camera rays and
@@ -179,7 +182,7 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
     // One sample's variance; that of the other estimates' PILOT_SAMPLES.
     let lights = variance_of(&a, &b, |s| s.emission) / PILOT_SAMPLES as f64;
     // All the rest, at a sparse set of pixels, at each count.
-    let pixels = pilot_pixels(ctx, wanted as u32, seed);
+    let pixels = pilot_pixels(ctx, pilot_pixels_for(budget), seed);
     let samples = pixels.len().max(1) as f64 * PILOT_SAMPLES as f64;
     let trials: Vec<Trial> = CANDIDATES
         .iter()
@@ -234,8 +237,7 @@ mod tests {
         let (_, _, rays) = choose(&ctx, &MapLight::new(&ctx, &maps), 2.0);
         let seed = config.seed.wrapping_add(PILOT_SEED);
         let seen = pilot_pixels(&ctx, LIGHT_PILOT_PIXELS, seed).len() as u64;
-        let wanted = (2.0 * PILOT_PIXELS_PER_SECOND).clamp(PILOT_PIXELS.0 as f64, PILOT_PIXELS.1 as f64);
-        let tried = pilot_pixels(&ctx, wanted as u32, seed).len() as u64;
+        let tried = pilot_pixels(&ctx, pilot_pixels_for(2.0), seed).len() as u64;
         let camera_rays = 2 * seen + CANDIDATES.len() as u64 * 2 * tried * PILOT_SAMPLES as u64;
         assert!(seen == 24 * 16 && tried > 0, "{seen}, {tried}");
         assert!(rays.closest >= camera_rays, "{rays:?} for {camera_rays} camera rays");

@@ -343,12 +343,13 @@ impl<'a> Progressive<'a> {
             })
             .collect();
         let start = Instant::now();
-        let mut rays = RayCount::default();
-        let density = config.photons.sppm.initial_radius.is_none().then(|| {
-            let (positions, density_rays) = density_positions(ctx);
-            rays = density_rays;
-            Density::new(positions, ctx.diagonal * 1e-4, ctx.diagonal / 25.0)
-        });
+        let (density, rays) = match config.photons.sppm.initial_radius {
+            Some(_) => (None, RayCount::default()),
+            None => {
+                let (positions, rays) = density_positions(ctx);
+                (Some(Density::new(positions, ctx.diagonal * 1e-4, ctx.diagonal / 25.0)), rays)
+            }
+        };
         let photon_seconds = start.elapsed().as_secs_f64();
         Progressive {
             ctx: *ctx,
@@ -491,9 +492,7 @@ impl<'a> Progressive<'a> {
                 (point, count)
             })
             .unzip();
-        for c in counts {
-            self.rays += c;
-        }
+        self.rays += counts.into_iter().sum();
         points
     }
 
