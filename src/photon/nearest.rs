@@ -244,11 +244,16 @@ impl<T: Copy> PointTree<T> {
                 }
             }
             if end - first <= LEAF {
-                inside.extend(
-                    (first..end)
-                        .filter(|&i| self.points[i].cmpge(lo).all() && self.points[i].cmple(hi).all())
-                        .map(|i| i as u32),
-                );
+                // Without a branch per point (inside or not is as good as a
+                // coin toss at the box's faces): every point is written past
+                // the last one inside, and that end moves past those inside.
+                let mut leaf = [0u32; LEAF];
+                let mut n = 0;
+                for (i, &p) in self.points[first..end].iter().enumerate() {
+                    leaf[n % LEAF] = (first + i) as u32;
+                    n += usize::from((p.cmpge(lo) & p.cmple(hi)).all());
+                }
+                inside.extend_from_slice(&leaf[..n]);
             }
         }
     }
