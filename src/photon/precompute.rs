@@ -12,7 +12,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::guide::GatherGuide;
+use super::guide::GuideBins;
 use super::map::{close_disc, Estimate, IrradianceRecord, Photon, Precomputed};
 use super::runs::{unkey, Runs};
 use crate::sampling::Frame;
@@ -88,15 +88,17 @@ pub(super) fn record_in(
 ) -> IrradianceRecord {
     let (r, frame) = (radius2.sqrt(), Frame::new(n));
     let mut power = Vec3::ZERO;
-    let guide = GatherGuide::new(
-        found
-            .iter()
-            .map(|&(_, i)| &photons[i])
-            .filter(|photon| photon.lights_surface(p, n, r))
-            .inspect(|photon| power += photon.power)
-            .filter(|photon| photon.indirect)
-            .map(|photon| (frame.to_local(photon.incoming), photon.power.element_sum())),
-    );
+    let mut bins = GuideBins::default();
+    for &(_, i) in found {
+        let photon = &photons[i];
+        if photon.lights_surface(p, n, r) {
+            power += photon.power;
+            if photon.indirect {
+                bins.add(frame.to_local(photon.incoming), photon.power.element_sum());
+            }
+        }
+    }
+    let guide = bins.guide();
     let irradiance = if radius2 > 0.0 { power / (std::f32::consts::PI * radius2) } else { Vec3::ZERO };
     IrradianceRecord { position: p, normal: n, irradiance, radius2, guide }
 }
