@@ -234,10 +234,10 @@ impl Cell {
     /// reach of the box from the points `inside` it or near it (see the
     /// module's comment), less those another point is nearer than everywhere
     /// in it. `in_box(lo, hi)` gives the slots of the points in a box.
-    /// `near` is a buffer reused from cell to cell: with one pass over the
-    /// points in the box instead of four, and `in_box`'s leaves scanned
-    /// without a branch, the lists build in a quarter less time
-    /// (BENCHMARKS.md).
+    /// `near` is a buffer reused from cell to cell: with three passes over
+    /// the points in the box instead of six, one buffer instead of four
+    /// vectors made a cell, and `in_box`'s leaves scanned without a branch,
+    /// the lists build in a quarter less time (BENCHMARKS.md).
     fn candidates<'a>(
         &self,
         points: &[Vec3],

@@ -247,6 +247,7 @@ impl<T: Copy> PointTree<T> {
                 // Without a branch per point (inside or not is as good as a
                 // coin toss at the box's faces): every point is written past
                 // the last one inside, and that end moves past those inside.
+                // (`n <= i < LEAF`, so `n % LEAF` is `n`: no bounds check.)
                 let mut leaf = [0u32; LEAF];
                 let mut n = 0;
                 for (i, &p) in self.points[first..end].iter().enumerate() {
