@@ -450,6 +450,40 @@ mod tests {
     }
 
     #[test]
+    fn a_box_holds_what_brute_force_finds() {
+        // Points on a plane (many on a box's face exactly) and in a volume;
+        // boxes from empty to all, and leaves whose points are all inside,
+        // none or some (the leaf scan writes every point, keeping those in).
+        let mut rng = Rng::new(8, 3);
+        for n in [0usize, 1, 8, 9, 100, 5000] {
+            let points: Vec<Vec3> = (0..n)
+                .map(|i| match i % 2 {
+                    0 => Vec3::new((i % 20) as f32 * 0.05, 0.0, (i / 20 % 20) as f32 * 0.05),
+                    _ => Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()),
+                })
+                .collect();
+            let tree = PointTree::new(&points, &vec![(); n]);
+            let mut inside = vec![7];
+            for j in 0..100 {
+                let (a, b) = (Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()), Vec3::splat(0.05));
+                let (lo, hi) = match j % 4 {
+                    0 => (Vec3::splat(-1.0), Vec3::splat(2.0)),
+                    1 => (a, a - b),
+                    2 => (Vec3::new(0.25, 0.0, 0.25), Vec3::new(0.5, 0.0, 0.5)),
+                    _ => (a - b * (j % 7) as f32, a + b * (j % 5) as f32),
+                };
+                tree.in_box(lo, hi, &mut inside);
+                let mut found: Vec<u32> = inside.iter().map(|&slot| tree.items[slot as usize]).collect();
+                found.sort_unstable();
+                let brute: Vec<u32> = (0..n as u32)
+                    .filter(|&i| points[i as usize].cmpge(lo).all() && points[i as usize].cmple(hi).all())
+                    .collect();
+                assert_eq!(found, brute, "n {n}, box {lo} to {hi}");
+            }
+        }
+    }
+
+    #[test]
     fn finds_what_brute_force_finds() {
         let mut rng = Rng::new(5, 1);
         // (From 4096 points the halves are built in parallel.)
