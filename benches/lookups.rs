@@ -33,7 +33,7 @@ fn main() {
     let query = SceneQuery::new(&scene, accel.as_ref());
     let settings = PhotonConfig::default();
     let diagonal = Context::diagonal_of(&scene);
-    let maps = build_maps(&query, &settings, 0, scene.config.sampler, diagonal);
+    let maps = build_maps(&query, &settings, scene.config.max_depth, 0, scene.config.sampler, diagonal);
     let global = maps.global.as_ref().expect("a global map");
 
     // Gather hits from lit points.

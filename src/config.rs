@@ -160,7 +160,8 @@ pub struct PhotonConfig {
     /// Whether gather rays favour the directions the global map's photons
     /// came from (Jensen 1995), rather than follow the cosine alone.
     pub guided_gathering: bool,
-    /// Most bounces a photon makes.
+    /// Most bounces a photon makes (fewer where more would make paths
+    /// longer than `max_depth` allows the camera's: [`crate::photon::map_bounces`]).
     pub max_bounces: u32,
     /// Progressive photon mapping (for [`IntegratorKind::Sppm`]).
     pub sppm: SppmConfig,

@@ -227,7 +227,14 @@ fn the_caustic_estimate_over_the_floor_holds_the_photons_power() {
     let mut photons = scene.config.photons.clone();
     (photons.global_photons, photons.caustic_photons) = (0, 200_000);
     let diagonal = caustix::integrator::Context::diagonal_of(&scene);
-    let maps = caustix::photon::build_maps(&query, &photons, 0, scene.config.sampler, diagonal);
+    let maps = caustix::photon::build_maps(
+        &query,
+        &photons,
+        scene.config.max_depth,
+        0,
+        scene.config.sampler,
+        diagonal,
+    );
     let map = maps.caustic.expect("a caustic map");
     // The window: the floor within 3 of the axis, where the focused light lands.
     let half = 3.0f32;

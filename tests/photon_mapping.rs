@@ -396,6 +396,7 @@ fn a_render_counts_the_rays_its_photons_trace() {
     let maps = caustix::photon::build_maps(
         &query,
         &settings.photons,
+        settings.max_depth,
         settings.seed,
         settings.sampler,
         Context::diagonal_of(&scene),

@@ -55,6 +55,7 @@ pub fn measure(
             drop(build_maps(
                 &query,
                 &settings.photons,
+                settings.max_depth,
                 settings.seed,
                 settings.sampler,
                 (b.max - b.min).length(),

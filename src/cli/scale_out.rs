@@ -51,7 +51,14 @@ pub fn photons(args: PhotonsArgs) -> anyhow::Result<()> {
     let diagonal = caustix::integrator::Context::diagonal_of(&scene);
     let query = caustix::query::SceneQuery::new(&scene, accel.as_ref());
     let maps = pool.install(|| {
-        caustix::photon::build_maps(&query, &settings.photons, settings.seed, settings.sampler, diagonal)
+        caustix::photon::build_maps(
+            &query,
+            &settings.photons,
+            settings.max_depth,
+            settings.seed,
+            settings.sampler,
+            diagonal,
+        )
     });
     let start = Instant::now();
     caustix::photon::file::save(&output, &maps, &scene, &settings, diagonal).map_err(in_flags)?;

@@ -77,7 +77,14 @@ impl Integrator for PhotonMapping {
     /// steps of at most 16 times, each judged by how long the last took.
     fn photon_maps(&self, ctx: &Context) -> Option<PhotonMaps> {
         let config = ctx.config;
-        let mut maps = build_maps(&ctx.query, &config.photons, config.seed, config.sampler, ctx.diagonal);
+        let mut maps = build_maps(
+            &ctx.query,
+            &config.photons,
+            config.max_depth,
+            config.seed,
+            config.sampler,
+            ctx.diagonal,
+        );
         let Some(budget) = config.time else { return Some(maps) };
         // No map built (no light, say): nothing to grow.
         if maps.stats.global_emitted + maps.stats.caustic_emitted == 0 {
@@ -106,7 +113,8 @@ impl Integrator for PhotonMapping {
             if photons == scaled_photons(&config.photons, factor) {
                 break;
             }
-            let more = build_maps(&ctx.query, &photons, config.seed, config.sampler, ctx.diagonal);
+            let more =
+                build_maps(&ctx.query, &photons, config.max_depth, config.seed, config.sampler, ctx.diagonal);
             spent += seconds(&more);
             traced += more.stats.trace_seconds;
             built += more.stats.build_seconds;

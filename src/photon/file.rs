@@ -8,7 +8,7 @@
 //! u64 scene fingerprint (Scene::fingerprint)
 //! the settings the maps depend on: u64 seed, u8 sampler (0 Sobol, 1
 //!   independent), u32 global photons, u32 caustic photons, u32 max bounces,
-//!   u8 for gathering, u32 global k, f32 global radius
+//!   u32 max depth, u8 for gathering, u32 global k, f32 global radius
 //! stats: u64 global emitted, u64 caustic emitted, f64 trace s, f64 build s,
 //!   u64 notes, each u32 length + UTF-8
 //! global map, caustic map: u8 present; u64 photons, each 12 f32 (position,
@@ -36,7 +36,7 @@ use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
 const MAGIC: &[u8; 4] = b"CXPM";
-const VERSION: u32 = 3;
+const VERSION: u32 = 4;
 
 /// What a scene's photon maps depend on besides the scene: two maps are
 /// interchangeable when these and the scene's fingerprint agree.
@@ -48,6 +48,9 @@ struct MapSettings {
     global_photons: u32,
     caustic_photons: u32,
     max_bounces: u32,
+    /// The render's longest camera path, which limits the photons' paths
+    /// ([`super::map_bounces`]).
+    max_depth: u32,
     for_gathering: bool,
     global_k: u32,
     global_radius: f32,
@@ -62,6 +65,7 @@ impl MapSettings {
             global_photons: p.global_photons,
             caustic_photons: p.caustic_photons,
             max_bounces: p.max_bounces,
+            max_depth: config.max_depth,
             for_gathering: p.gather_rays > 0,
             global_k: p.global_k,
             global_radius: p.global_estimate(diagonal).max_radius,
@@ -82,6 +86,7 @@ impl MapSettings {
         differ("--photons", self.global_photons.to_string(), asked.global_photons.to_string());
         differ("--caustic-photons", self.caustic_photons.to_string(), asked.caustic_photons.to_string());
         differ("max_bounces", self.max_bounces.to_string(), asked.max_bounces.to_string());
+        differ("max_depth", self.max_depth.to_string(), asked.max_depth.to_string());
         let gathering = |g: bool| if g { "some" } else { "none" }.to_string();
         differ("--gather-rays", gathering(self.for_gathering), gathering(asked.for_gathering));
         differ("--global-k", self.global_k.to_string(), asked.global_k.to_string());
@@ -112,6 +117,7 @@ pub fn save(
     w.u32(s.global_photons);
     w.u32(s.caustic_photons);
     w.u32(s.max_bounces);
+    w.u32(s.max_depth);
     w.0.push(s.for_gathering as u8);
     w.u32(s.global_k);
     w.f32(s.global_radius);
@@ -300,6 +306,7 @@ impl Reader<'_> {
             global_photons: self.u32()?,
             caustic_photons: self.u32()?,
             max_bounces: self.u32()?,
+            max_depth: self.u32()?,
             for_gathering: self.u8()? != 0,
             global_k: self.u32()?,
             global_radius: self.f32()?,

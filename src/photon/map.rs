@@ -15,6 +15,7 @@ use std::num::NonZero;
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
+use super::disc::DiscShare;
 use super::grid::Grid;
 use super::guide::GatherGuide;
 use super::nearest::{Found, PointTree};
@@ -89,7 +90,7 @@ impl Photon {
 /// (unit normal `n`) for a gathering of radius `r`: the surfaces face the
 /// same way and `at` lies within `r / 4` of the plane at `p`.
 pub fn lands_near(at: Vec3, normal: Vec3, p: Vec3, n: Vec3, r: f32) -> bool {
-    normal.dot(n) >= 0.9 && (at - p).dot(n).abs() <= 0.25 * r
+    normal.dot(n) >= super::disc::SAME_WAY && (at - p).dot(n).abs() <= 0.25 * r
 }
 
 /// Photons in a kd-tree, ready for nearest-neighbour queries.
@@ -399,9 +400,11 @@ impl PhotonMap {
         }
         let r = r2.sqrt();
         let mut sum = Vec3::ZERO;
+        let mut disc = DiscShare::new(p, n, r).with_cone_filter(estimate.cone_filter);
         for &(d2, i) in found {
             let photon = &self.photons[i];
             if !photon.lights_surface(p, n, r) {
+                disc.offer(photon.position, photon.normal);
                 continue;
             }
             let weight = match estimate.cone_filter {
@@ -410,9 +413,13 @@ impl PhotonMap {
             };
             sum += weight * material.brdf(n, photon.incoming, wo) * photon.power;
         }
-        // The cone filter's weights integrate to (1 - 2 / (3 k_c)) pi r^2.
+        // The cone filter's weights integrate to (1 - 2 / (3 k_c)) pi r^2;
+        // near a corner, the share of that on this surface.
+        let counted =
+            found.iter().map(|&(_, i)| &self.photons[i]).filter(|photon| photon.lights_surface(p, n, r));
+        let share = disc.share(counted.map(|photon| photon.position));
         let area = std::f32::consts::PI * r2 * estimate.cone_filter.map_or(1.0, |kc| 1.0 - 2.0 / (3.0 * kc));
-        sum / area
+        sum / (area * share)
     }
 
     /// The photons of an estimate at `p` (indices and squared distances) and
@@ -740,5 +747,39 @@ mod tests {
         }
         // Surfaces facing away find nothing.
         assert_eq!(map.precomputed_radiance(Vec3::new(0.5, 0.0, 0.5), -Vec3::Y, &grey, &est), Vec3::ZERO);
+    }
+
+    #[test]
+    fn uniform_photons_give_their_irradiance_in_a_corner() {
+        // A unit square of floor between two walls (x = 0 and z = 0), each
+        // with 200 x 200 photons on a lattice carrying 1 W in all: 1 W/m^2
+        // everywhere, up to the corner.
+        let lattice = |at: &dyn Fn(f32, f32) -> Vec3, normal: Vec3| {
+            (0..200 * 200)
+                .map(|i| Photon {
+                    position: at((i % 200) as f32 / 200.0 + 0.0025, (i / 200) as f32 / 200.0 + 0.0025),
+                    incoming: normal,
+                    power: Vec3::splat(1.0 / (200.0 * 200.0)),
+                    normal,
+                    indirect: true,
+                })
+                .collect::<Vec<_>>()
+        };
+        let mut photons = lattice(&|u, v| Vec3::new(u, 0.0, v), Vec3::Y);
+        photons.extend(lattice(&|u, v| Vec3::new(0.0, u, v), Vec3::X));
+        photons.extend(lattice(&|u, v| Vec3::new(u, v, 0.0), Vec3::Z));
+        let map = PhotonMap::new(photons);
+        let est = Estimate { k: 200, max_radius: 0.5, cone_filter: None };
+        let lambertian = Material { diffuse: Vec3::ONE, ..Material::default() };
+        // In the open, beside one wall, and into the corner of all three;
+        // the disc's radius (about 0.04) reaches past the walls in all but
+        // the first. Without the disc's share the point beside one wall
+        // read 0.67.
+        for p in [Vec3::new(0.5, 0.0, 0.5), Vec3::new(0.012, 0.0, 0.5), Vec3::new(0.001, 0.0, 0.001)] {
+            let e = map.irradiance(p, Vec3::Y, &est);
+            assert!((e.x - 1.0).abs() < 0.06, "irradiance at {p}: {e}");
+            let l = map.radiance(p, Vec3::Y, Vec3::Y, &lambertian, &est) * std::f32::consts::PI;
+            assert!((l.x - 1.0).abs() < 0.06, "radiance at {p}: {l}");
+        }
     }
 }

@@ -18,6 +18,7 @@
 
 mod cell_table;
 mod cells;
+pub mod disc;
 pub mod file;
 mod grid;
 pub mod guide;
@@ -94,6 +95,7 @@ pub enum Pass {
 pub fn build_maps(
     query: &SceneQuery,
     settings: &PhotonConfig,
+    max_depth: u32,
     seed: u64,
     sampler: SamplerKind,
     diagonal: f32,
@@ -104,11 +106,13 @@ pub fn build_maps(
     let has_diffuse = scene.meshes.iter().any(|m| scene.materials[m.material].is_glossy_or_diffuse());
     let has_light = scene.lights.iter().any(|l| l.power().max_element() > 0.0);
     let for_gathering = settings.gather_rays > 0;
+    let (global_bounces, caustic_bounces) = map_bounces(settings, max_depth);
 
     // Traces a map's photons.
     let traced = |pass: Pass, count: u32, stats: &mut PhotonStats| {
         let start = Instant::now();
-        let (photons, rays) = trace(query, pass, count, settings.max_bounces, seed, sampler);
+        let max_bounces = if pass == Pass::Caustic { caustic_bounces } else { global_bounces };
+        let (photons, rays) = trace(query, pass, count, max_bounces, seed, sampler);
         stats.trace_seconds += start.elapsed().as_secs_f64();
         stats.rays += rays;
         photons
@@ -161,6 +165,23 @@ pub fn build_maps(
     );
     stats.build_seconds = start.elapsed().as_secs_f64();
     PhotonMaps { global, caustic, for_gathering, stats }
+}
+
+/// The most bounces the photons of the global and the caustic map make:
+/// `max_bounces`, and none that would make paths longer than the path
+/// tracer's, which follows at most `max_depth` camera rays and then a
+/// shadow ray. A photon that bounced `b` times before landing lights a
+/// surface seen straight from the camera along `b + 2` rays (its own
+/// `b + 1` and the camera's), or `b + 3` when a gather ray reads it there:
+/// at most `max_depth + 1` keeps `b` below `max_depth`, or `max_depth - 1`
+/// with final gathering. (Surfaces seen through mirrors and glass make
+/// longer paths of the same photons; they are few.) Left longer, the
+/// photons added about 1% to the Cornell box's indirect light that the
+/// path tracer and the references leave out (BENCHMARKS.md, "Corners").
+pub fn map_bounces(settings: &PhotonConfig, max_depth: u32) -> (u32, u32) {
+    let gather_ray = u32::from(settings.gather_rays > 0);
+    let global = settings.max_bounces.min(max_depth.saturating_sub(gather_ray)).max(1);
+    (global, settings.max_bounces.min(max_depth))
 }
 
 /// The caustic map with cells for its estimates' radius: most caustic

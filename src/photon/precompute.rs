@@ -12,6 +12,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::disc::DiscShare;
 use super::guide::GuideBins;
 use super::map::{close_disc, Estimate, IrradianceRecord, Photon, Precomputed};
 use super::runs::{unkey, Runs};
@@ -89,6 +90,7 @@ pub(super) fn record_in(
     let (r, frame) = (radius2.sqrt(), Frame::new(n));
     let mut power = Vec3::ZERO;
     let mut bins = GuideBins::default();
+    let mut disc = DiscShare::new(p, n, r);
     for &(_, i) in found {
         let photon = &photons[i];
         if photon.lights_surface(p, n, r) {
@@ -96,10 +98,16 @@ pub(super) fn record_in(
             if photon.indirect {
                 bins.add(frame.to_local(photon.incoming), photon.power.element_sum());
             }
+        } else {
+            disc.offer(photon.position, photon.normal);
         }
     }
     let guide = bins.guide();
-    let irradiance = if radius2 > 0.0 { power / (std::f32::consts::PI * radius2) } else { Vec3::ZERO };
+    // Near a corner only part of the disc lies on this surface.
+    let counted = found.iter().map(|&(_, i)| &photons[i]).filter(|photon| photon.lights_surface(p, n, r));
+    let share = disc.share(counted.map(|photon| photon.position));
+    let irradiance =
+        if radius2 > 0.0 { power / (std::f32::consts::PI * radius2 * share) } else { Vec3::ZERO };
     IrradianceRecord { position: p, normal: n, irradiance, radius2, guide }
 }
 

@@ -232,7 +232,14 @@ mod tests {
             crate::RenderConfig { width: 24, height: 16, time: Some(2.0), ..scene.config.clone() };
         config.photons.global_photons = 2_000;
         let ctx = Context::new(&scene, accel.as_ref(), &config);
-        let maps = crate::photon::build_maps(&ctx.query, &config.photons, 0, config.sampler, ctx.diagonal);
+        let maps = crate::photon::build_maps(
+            &ctx.query,
+            &config.photons,
+            config.max_depth,
+            0,
+            config.sampler,
+            ctx.diagonal,
+        );
         let ctx = Context { photon_maps: Some(&maps), ..ctx };
         let (_, _, rays) = choose(&ctx, &MapLight::new(&ctx, &maps), 2.0);
         let seed = config.seed.wrapping_add(PILOT_SEED);

@@ -31,7 +31,11 @@
 //! Photons arriving straight from a light are not gathered (shadow rays
 //! already count that light); those that came through mirrors and glass only
 //! go to the `caustic` component, the rest to `global`. Direct light and
-//! lights seen through mirrors go to `direct`.
+//! lights seen through mirrors go to `direct`. A visible point gathers only
+//! photons whose paths, with the camera's, are no longer than the path
+//! tracer's (`max_depth` camera rays, then a shadow ray), and near a corner
+//! its flux stands for the share of its disc on its own surface
+//! (`photon::disc`).
 
 use std::f32::consts::PI;
 use std::time::{Duration, Instant};
@@ -45,6 +49,7 @@ use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::Bsdf;
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
+use crate::photon::disc::DiscShare;
 use crate::photon::nearest::{Nearest, PointTree};
 use crate::photon::ranges::{close_together, GroupBuffers, RangeSearch};
 use crate::photon::{emit, Arrival, Photon, PhotonNumbers};
@@ -166,6 +171,9 @@ pub(crate) struct VisiblePoint {
     weight: Vec3,
     /// The pixel's radius this pass.
     radius: f32,
+    /// The camera path's rays up to this point (1 for a surface seen
+    /// directly), for the length of the paths photons make through it.
+    depth: u32,
 }
 
 /// Photon flux one visible point gathered in one pass.
@@ -568,16 +576,24 @@ impl<'a> Progressive<'a> {
         // Each photon where it lands, in the order emitted (a photon that
         // bounced off no diffuse or glossy surface before, `!indirect`, is
         // caustic light).
+        // A photon that bounced `b` times before landing at a visible point
+        // `d` camera rays deep makes a path of `b + 1 + d` rays, which the
+        // path tracer (camera rays up to `max_depth`, then a shadow ray)
+        // makes only while `b + d <= max_depth`: photons gather only there,
+        // and none is traced beyond `max_depth` bounces. Left longer, the
+        // photons' paths added about 1% to the Cornell box's indirect light
+        // that the path tracer and the references leave out (BENCHMARKS.md).
+        let max_depth = config.max_depth;
         let (chunks, rays) = emit(
             &self.ctx.query,
             photons,
-            config.photons.max_bounces,
+            config.photons.max_bounces.min(max_depth),
             numbers,
             false,
             Vec::new,
-            |arrived: &mut Vec<Photon>, arrival: &Arrival| {
+            |arrived: &mut Vec<(Photon, u32)>, arrival: &Arrival| {
                 if is_gathered(arrival) {
-                    arrived.push(arrival.photon);
+                    arrived.push((arrival.photon, arrival.diffuse_bounces + arrival.specular_bounces));
                 }
                 true
             },
@@ -588,14 +604,19 @@ impl<'a> Progressive<'a> {
         for chunk in chunks {
             arrived.extend(chunk);
         }
-        let search = RangeSearch::new(&arrived, |photon| photon.position);
+        let search = RangeSearch::new(&arrived, |(photon, _)| photon.position);
         // The flux a visible point gathers from the photons `found` within
         // its radius, in the order they were emitted.
         let gathered = |vp: &VisiblePoint, found: &[u32]| {
             let mut g = Gathered::default();
+            let mut disc = DiscShare::new(vp.p, vp.n, vp.radius);
             for &i in found {
-                let photon = &arrived[i as usize];
+                let (photon, bounces) = &arrived[i as usize];
                 if !photon.lights_surface(vp.p, vp.n, vp.radius) {
+                    disc.offer(photon.position, photon.normal);
+                    continue;
+                }
+                if bounces + vp.depth > max_depth {
                     continue;
                 }
                 let f = scene.materials[vp.material].brdf(vp.n, photon.incoming, vp.wo);
@@ -606,6 +627,15 @@ impl<'a> Progressive<'a> {
                     g.global += flux;
                 }
                 g.count += 1;
+            }
+            // Near a corner only part of the disc lies on the point's
+            // surface: the flux found there stands for the whole disc's.
+            let counted = found.iter().map(|&i| &arrived[i as usize].0);
+            let counted = counted.filter(|photon| photon.lights_surface(vp.p, vp.n, vp.radius));
+            let share = disc.share(counted.map(|photon| photon.position));
+            if share < 1.0 {
+                g.caustic /= share;
+                g.global /= share;
             }
             g
         };
@@ -833,6 +863,7 @@ fn visible_point(
                     material: sp.material,
                     weight: weight / stop,
                     radius: state.radius,
+                    depth: bounce + 1,
                 });
             }
             weight /= 1.0 - stop;
