@@ -6,8 +6,9 @@
 //! wall) only part of the disc can hold photons of this surface: the rest
 //! lies beyond the corner, where photons land on the other surface and are
 //! (rightly) not counted. Dividing by the whole disc then darkens every
-//! point within `r` of a corner, and SPPM's pixels on a corner line were a
-//! tenth to a fifth too dark at any budget (BENCHMARKS.md, "Corners").
+//! point within `r` of a corner: on the Cornell box SPPM's indirect light
+//! in the pixels astride a corner line was a tenth to a fifth short at any
+//! budget, the pixels 7-8% too dark (BENCHMARKS.md, "Corners").
 //!
 //! The other surface shows itself by the photons it holds inside the
 //! search: each such photon lies on that surface and carries its normal,
@@ -83,7 +84,7 @@ impl DiscShare {
     /// normals differ by more than about 25 degrees) decides where that
     /// plane is.
     pub fn offer(&mut self, at: Vec3, surface_normal: Vec3) {
-        // (Also for a radius or a sine that is NaN.)
+        // (A NaN radius is not positive either.)
         let radius_positive = self.radius > 0.0;
         if self.len == PLANES || !radius_positive || surface_normal.dot(self.normal) >= SAME_WAY {
             return;
@@ -95,6 +96,7 @@ impl DiscShare {
         // the line where the planes meet.
         let across = surface_normal - surface_normal.dot(self.normal) * self.normal;
         let sine = across.length();
+        // (False for a NaN normal.)
         let leans = sine >= LEAST_SINE;
         if !leans {
             return;

@@ -573,9 +573,6 @@ impl<'a> Progressive<'a> {
                 .wrapping_add((self.passes as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)),
         };
         let numbers = PhotonNumbers::for_sampler(config.sampler, pass_seed, self.emitted);
-        // Each photon where it lands, in the order emitted (a photon that
-        // bounced off no diffuse or glossy surface before, `!indirect`, is
-        // caustic light).
         // A photon that bounced `b` times before landing at a visible point
         // `d` camera rays deep makes a path of `b + 1 + d` rays, which the
         // path tracer (camera rays up to `max_depth`, then a shadow ray)
@@ -584,6 +581,9 @@ impl<'a> Progressive<'a> {
         // photons' paths added about 1% to the Cornell box's indirect light
         // that the path tracer and the references leave out (BENCHMARKS.md).
         let max_depth = config.max_depth;
+        // Each photon where it lands, with its bounces, in the order emitted
+        // (a photon that bounced off no diffuse or glossy surface before,
+        // `!indirect`, is caustic light).
         let (chunks, rays) = emit(
             &self.ctx.query,
             photons,
