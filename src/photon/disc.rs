@@ -25,6 +25,8 @@
 
 use glam::Vec3;
 
+use super::map::Photon;
+
 /// A plane's normal must lean at least this far from the point's own
 /// normal (the sine of the angle between them) to cut the disc: a plane
 /// nearly parallel to the point's surface would cut it, if at all, far
@@ -110,13 +112,22 @@ impl DiscShare {
         }
     }
 
-    /// The share of the disc on its surface, in (0, 1], given where the
-    /// photons counted on it lie (looked at only when a plane cuts the
-    /// disc): a plane that one of them lies beyond (by more than rounding)
-    /// does not bound the surface, which goes on past the line (a curved
-    /// surface, whose normal turns within the disc, or another object's
-    /// face near it). 1 when no plane cuts the disc.
-    pub fn share(mut self, counted: impl IntoIterator<Item = Vec3>) -> f32 {
+    /// The share of the disc on its surface, in (0, 1], among the photons
+    /// the search `found`: those counted on the surface are the ones that
+    /// light it ([`Photon::lights_surface`] at the disc's centre, normal
+    /// and radius), looked at only when a plane cuts the disc.
+    pub fn share_among<'a>(self, found: impl IntoIterator<Item = &'a Photon>) -> f32 {
+        let (centre, normal, radius) = (self.centre, self.normal, self.radius);
+        let counted = found.into_iter().filter(move |photon| photon.lights_surface(centre, normal, radius));
+        self.share(counted.map(|photon| photon.position))
+    }
+
+    /// The share of the disc on its surface, given where the photons
+    /// counted on it lie: a plane that one of them lies beyond (by more
+    /// than rounding) does not bound the surface, which goes on past the
+    /// line (a curved surface, whose normal turns within the disc, or
+    /// another object's face near it). 1 when no plane cuts the disc.
+    fn share(mut self, counted: impl IntoIterator<Item = Vec3>) -> f32 {
         if self.planes[..self.len].iter().any(|plane| plane.left < 1.0) {
             for at in counted {
                 self.counted(at);

@@ -415,9 +415,7 @@ impl PhotonMap {
         }
         // The cone filter's weights integrate to (1 - 2 / (3 k_c)) pi r^2;
         // near a corner, the share of that on this surface.
-        let counted =
-            found.iter().map(|&(_, i)| &self.photons[i]).filter(|photon| photon.lights_surface(p, n, r));
-        let share = disc.share(counted.map(|photon| photon.position));
+        let share = disc.share_among(found.iter().map(|&(_, i)| &self.photons[i]));
         let area = std::f32::consts::PI * r2 * estimate.cone_filter.map_or(1.0, |kc| 1.0 - 2.0 / (3.0 * kc));
         sum / (area * share)
     }

@@ -104,8 +104,7 @@ pub(super) fn record_in(
     }
     let guide = bins.guide();
     // Near a corner only part of the disc lies on this surface.
-    let counted = found.iter().map(|&(_, i)| &photons[i]).filter(|photon| photon.lights_surface(p, n, r));
-    let share = disc.share(counted.map(|photon| photon.position));
+    let share = disc.share_among(found.iter().map(|&(_, i)| &photons[i]));
     let irradiance =
         if radius2 > 0.0 { power / (std::f32::consts::PI * radius2 * share) } else { Vec3::ZERO };
     IrradianceRecord { position: p, normal: n, irradiance, radius2, guide }

@@ -630,9 +630,7 @@ impl<'a> Progressive<'a> {
             }
             // Near a corner only part of the disc lies on the point's
             // surface: the flux found there stands for the whole disc's.
-            let counted = found.iter().map(|&i| &arrived[i as usize].0);
-            let counted = counted.filter(|photon| photon.lights_surface(vp.p, vp.n, vp.radius));
-            let share = disc.share(counted.map(|photon| photon.position));
+            let share = disc.share_among(found.iter().map(|&i| &arrived[i as usize].0));
             if share < 1.0 {
                 g.caustic /= share;
                 g.global /= share;
