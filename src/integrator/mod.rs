@@ -13,6 +13,7 @@ pub mod pixels;
 pub mod preview;
 mod rounds;
 pub mod sppm;
+mod to_camera;
 pub mod unreached;
 pub mod vcm;
 pub mod whitted;

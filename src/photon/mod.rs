@@ -36,7 +36,7 @@ use rayon::prelude::*;
 use crate::accel::Ray;
 use crate::bsdf::{russian_roulette, Bsdf};
 use crate::config::PhotonConfig;
-use crate::query::{Interaction, RayCount, SceneQuery};
+use crate::query::{Interaction, RayCount, SceneQuery, SurfacePoint};
 use crate::sampling::{around, uniform_cone, Rng, SamplerKind, Sobol4};
 use crate::scene::Scene;
 pub use map::{Estimate, Photon, PhotonMap};
@@ -259,9 +259,11 @@ impl Cones {
 
 /// A photon arriving at a diffuse or glossy surface, with how it got there.
 #[derive(Debug, Clone, Copy)]
-pub struct Arrival {
+pub struct Arrival<'a> {
     /// Where it landed and what it carries.
     pub photon: Photon,
+    /// The surface point it landed on.
+    pub surface: &'a SurfacePoint,
     /// Diffuse or glossy bounces before this surface.
     pub diffuse_bounces: u32,
     /// Mirror or glass bounces before this surface.
@@ -486,7 +488,7 @@ fn trace_photon(
                 normal: sp.ns,
                 indirect: diffuse_bounces > 0,
             };
-            if !arrive(&Arrival { photon, diffuse_bounces, specular_bounces }) {
+            if !arrive(&Arrival { photon, surface: &sp, diffuse_bounces, specular_bounces }) {
                 return;
             }
         }

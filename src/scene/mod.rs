@@ -12,6 +12,9 @@ pub mod shapes;
 pub mod teapot;
 mod values;
 
+#[cfg(test)]
+pub(crate) mod test_scenes;
+
 use std::path::{Path, PathBuf};
 
 use glam::{DVec3, Vec3};

@@ -36,6 +36,7 @@ use rayon::prelude::*;
 use super::direct::{LightSamples, LightSampling};
 use super::path::PathClass;
 use super::pixels::render_pixels;
+use super::to_camera::CameraView;
 use super::{Context, Integrator, Progress, Rendered, SampleRange};
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
@@ -499,21 +500,10 @@ fn connect_to_camera(
     path: &Subpath,
     rays: &mut RayCount,
 ) -> Option<(usize, Vec3)> {
-    let c = ctx.config;
-    let camera = &ctx.scene().camera;
-    let (pixel, cos_camera) = camera.project(sp.p, c.width, c.height)?;
-    let region = c.region();
-    let (x, y) = (pixel.x as u32, pixel.y as u32);
-    if !(region.x0..region.x1).contains(&x) || !(region.y0..region.y1).contains(&y) {
-        return None;
-    }
-    let to_eye = camera.eye - sp.p;
-    let distance2 = to_eye.length_squared();
-    let lobes = lobes(bsdf, sp, to_eye / distance2.sqrt())?;
-    // The camera's density of this point, per unit area of the surface:
-    // per pixel on the image plane, to solid angle, to the surface.
-    let to_image_plane = camera.image_distance(c.height) / cos_camera;
-    let camera_area_pdf = to_image_plane * to_image_plane / cos_camera * lobes.cos / distance2;
+    let view = CameraView::of(ctx, sp.p)?;
+    let lobes = lobes(bsdf, sp, view.to_eye)?;
+    // The camera's density of this point, per unit area of the surface.
+    let camera_area_pdf = view.area_pdf(lobes.cos);
     let weight = match pass.mode {
         Mode::LightTracing => 1.0,
         _ => {
@@ -523,11 +513,10 @@ fn connect_to_camera(
         }
     };
     let value = path.throughput * lobes.f * (weight * camera_area_pdf / pass.light_paths as f32);
-    if finite(value) == Vec3::ZERO || ctx.query.occluded(&sp.spawn_to(camera.eye), rays) {
+    if finite(value) == Vec3::ZERO || !view.unblocked(ctx, sp, rays) {
         return None;
     }
-    let index = (y - region.y0) as usize * region.width() as usize + (x - region.x0) as usize;
-    Some((index, value))
+    Some((view.pixel, value))
 }
 
 /// A camera subpath through one pixel, joined to the light subpaths.
