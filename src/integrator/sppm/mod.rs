@@ -652,10 +652,16 @@ impl<'a> Progressive<'a> {
             // Caustic light seen directly also comes to the camera from the
             // photons themselves (`caustic_to_camera`): gathering keeps the
             // rest of its weight.
+            // (Where light tracing cannot take a path, out of the region or
+            // with the shading normal turned from the eye, all of it.)
             let caustic_weight = match vp.depth {
                 1 => CameraView::of(ctx, vp.p).map_or(1.0, |view| {
-                    let pdf = view.area_pdf(view.to_eye.dot(vp.n).max(0.0));
-                    1.0 - to_camera_weight(vp.radius, pdf)
+                    let cos = view.to_eye.dot(vp.n);
+                    if cos > 0.0 {
+                        1.0 - to_camera_weight(vp.radius, view.area_pdf(cos))
+                    } else {
+                        1.0
+                    }
                 }),
                 _ => 1.0,
             };
