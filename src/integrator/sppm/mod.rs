@@ -649,22 +649,7 @@ impl<'a> Progressive<'a> {
         // its radius, in the order they were emitted.
         let gathered = |vp: &VisiblePoint, found: &[u32]| {
             let mut g = Gathered::default();
-            // Caustic light seen directly also comes to the camera from the
-            // photons themselves (`caustic_to_camera`): gathering keeps the
-            // rest of its weight.
-            // (Where light tracing cannot take a path, out of the region or
-            // with the shading normal turned from the eye, all of it.)
-            let caustic_weight = match vp.depth {
-                1 => CameraView::of(ctx, vp.p).map_or(1.0, |view| {
-                    let cos = view.to_eye.dot(vp.n);
-                    if cos > 0.0 {
-                        1.0 - to_camera_weight(vp.radius, view.area_pdf(cos))
-                    } else {
-                        1.0
-                    }
-                }),
-                _ => 1.0,
-            };
+            let caustic_weight = caustic_gathering_weight(ctx, vp);
             let mut disc = DiscShare::new(vp.p, vp.n, vp.radius);
             for &i in found {
                 let (photon, bounces) = &arrived[i as usize];
@@ -760,6 +745,24 @@ fn caustic_to_camera(
         return None;
     }
     Some((view.pixel, light))
+}
+
+/// The weight a visible point gives the caustic photons it gathers: caustic
+/// light seen directly (at camera depth 1) also comes to the camera from
+/// the photons themselves (`caustic_to_camera`), and gathering keeps the
+/// rest; where light tracing cannot take the path (the point out of the
+/// region, or its shading normal turned from the eye), all of it.
+fn caustic_gathering_weight(ctx: &Context, vp: &VisiblePoint) -> f32 {
+    if vp.depth != 1 {
+        return 1.0;
+    }
+    let Some(view) = CameraView::of(ctx, vp.p) else { return 1.0 };
+    let cos = view.to_eye.dot(vp.n);
+    if cos > 0.0 {
+        1.0 - to_camera_weight(vp.radius, view.area_pdf(cos))
+    } else {
+        1.0
+    }
 }
 
 /// The share of a caustic path seen directly (`L S+ D E`) that light
@@ -1112,6 +1115,41 @@ mod tests {
         for (pixel, cells) in cells.iter().enumerate() {
             assert_eq!(cells, &[[1; 4]; 4], "pixel {pixel}");
         }
+    }
+
+    #[test]
+    fn gathering_keeps_what_light_tracing_cannot_take_of_a_caustic() {
+        let scene = crate::scene::test_scenes::wall_facing_the_camera();
+        let accel = crate::accel::build(crate::accel::Backend::Native, &scene.triangle_views()).unwrap();
+        let config = RenderConfig { width: 64, height: 48, ..scene.config.clone() };
+        let ctx = Context::new(&scene, accel.as_ref(), &config);
+        // The wall's point at the image's centre, seen directly.
+        let ray = scene.camera.ray(32.5, 24.5, 64, 48);
+        let p = ray.origin + ray.dir * (3.0 / -ray.dir.z);
+        let footprint = {
+            let view = CameraView::of(&ctx, p).unwrap();
+            1.0 / view.area_pdf(view.to_eye.dot(Vec3::Z))
+        };
+        let vp = |n: Vec3, radius: f32, depth: u32| VisiblePoint {
+            p,
+            n,
+            wo: Vec3::Z,
+            material: 0,
+            weight: Vec3::ONE,
+            radius,
+            depth,
+        };
+        // A disc of one footprint: light tracing takes 1 / (1 + (1/2)^2).
+        let one = (footprint / PI).sqrt();
+        let w = caustic_gathering_weight(&ctx, &vp(Vec3::Z, one, 1));
+        assert!((w - 0.2).abs() < 1e-4, "{w}");
+        // Discs far larger than a pixel gather nearly all; far smaller, nearly none.
+        assert!(caustic_gathering_weight(&ctx, &vp(Vec3::Z, 30.0 * one, 1)) > 0.999);
+        assert!(caustic_gathering_weight(&ctx, &vp(Vec3::Z, 0.01 * one, 1)) < 1e-3);
+        // Seen through a mirror, or with the shading normal turned from
+        // the eye (light tracing takes no such path): all of it.
+        assert_eq!(caustic_gathering_weight(&ctx, &vp(Vec3::Z, one, 2)), 1.0);
+        assert_eq!(caustic_gathering_weight(&ctx, &vp(-Vec3::Z, one, 1)), 1.0);
     }
 
     #[test]
