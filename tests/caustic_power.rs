@@ -281,7 +281,8 @@ fn caustic_beside_the_sphere() -> Scene {
 /// mean of the light tracer's: window -0.3 to +0.9%, shadow -1.2 to +2.2%
 /// (before its starting radius's slope was bounded, +1.8 to +2.6% and +2.0
 /// to +4.8%: a wide disc beside the caustic gathered it; BENCHMARKS.md).
-/// Here, against seed 3's: 1.0012 and 1.0118 (1.0071 and 1.0288 before the
+/// Here, against seed 3's: 1.0044 and 1.0163 with SPPM's alpha at 0.8
+/// (1.0012 and 1.0118 at 0.7; 1.0071 and 1.0288 before the
 /// caustic seen directly came to the camera from the photons too, 1.0548 in
 /// the shadow before the slope's bound).
 #[test]

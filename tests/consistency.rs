@@ -137,8 +137,11 @@ fn photon_mapping_agrees_with_the_path_tracer_and_improves_with_photons() {
 
 /// Progressive photon mapping on the same box: measured (32 x 32, 20k
 /// photons per pass, 2 camera paths a pass, the visible points a Sobol
-/// sequence of their own, against 16384 spp) block error 0.54%, 0.27%,
-/// 0.18% and lit-scene mean +0.23%, +0.08%, +0.04% at 16, 64, 256 passes;
+/// sequence of their own, against 16384 spp) block error 0.64%, 0.36%,
+/// 0.18% and lit-scene mean +0.17%, +0.13%, +0.09% at 16, 64, 256 passes
+/// with SPPM's alpha at 0.8 (at 0.7: 0.54%, 0.27%, 0.18% and +0.23%,
+/// +0.08%, +0.04%; in this tiny image, 20 photons a pixel a pass, bias is
+/// more of the error than at 256 x 256 with 100,000, where 0.8 is better);
 /// 0.57%, 0.32%, 0.23% and +0.26%, +0.13%, +0.08% before the caustic seen
 /// directly came to the camera from its photons too. Against 4096 spp:
 /// 0.74%, 0.37%, 0.39% now (the reference's noise), 0.73%, 0.44%, 0.43%

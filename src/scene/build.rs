@@ -153,12 +153,10 @@ impl Builder<'_> {
                 ))
             }
         };
-        let alpha = p.sppm_alpha.get_ref().0;
-        if !(alpha > 0.0 && alpha < 1.0) {
-            return Err(self.error_at(
-                p.sppm_alpha.span(),
-                format!("sppm_alpha must lie between 0 and 1 (exclusive), found {alpha}"),
-            ));
+        let alpha = p.sppm_alpha.as_ref().map(|a| (a.get_ref().0, a.span()));
+        if let Some((alpha, span)) = alpha.clone().filter(|(a, _)| !(*a > 0.0 && *a < 1.0)) {
+            return Err(self
+                .error_at(span, format!("sppm_alpha must lie between 0 and 1 (exclusive), found {alpha}")));
         }
         Ok(PhotonConfig {
             global_photons: p.global,
@@ -175,7 +173,7 @@ impl Builder<'_> {
                 passes: p.passes,
                 photons_per_pass: p.pass_photons,
                 initial_radius: p.sppm_radius.map(|r| r.0),
-                alpha,
+                alpha: alpha.map(|(a, _)| a),
             },
         })
     }

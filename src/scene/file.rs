@@ -198,9 +198,10 @@ pub struct PhotonSection {
     /// own, from the density of a first batch of photons).
     #[serde(default)]
     pub sppm_radius: Option<Positive>,
-    /// Progressive photon mapping: fraction of new photons kept per pass, in (0, 1).
-    #[serde(default = "default_sppm_alpha")]
-    pub sppm_alpha: Spanned<Finite>,
+    /// Progressive photon mapping and VCM's merging: fraction of new photons
+    /// kept per pass, in (0, 1) (default: each integrator's own).
+    #[serde(default)]
+    pub sppm_alpha: Option<Spanned<Finite>>,
 }
 
 impl Default for PhotonSection {
@@ -219,7 +220,7 @@ impl Default for PhotonSection {
             passes: default_passes(),
             pass_photons: default_pass_photons(),
             sppm_radius: None,
-            sppm_alpha: default_sppm_alpha(),
+            sppm_alpha: None,
         }
     }
 }
@@ -262,10 +263,6 @@ fn default_passes() -> u32 {
 
 fn default_pass_photons() -> u32 {
     PhotonConfig::default().sppm.photons_per_pass
-}
-
-fn default_sppm_alpha() -> Spanned<Finite> {
-    Spanned::new(0..0, Finite(PhotonConfig::default().sppm.alpha))
 }
 
 fn passes<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u32, D::Error> {

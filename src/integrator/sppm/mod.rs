@@ -439,7 +439,7 @@ impl<'a> Progressive<'a> {
             self.longest = (camera_seconds, photon_seconds);
         }
 
-        let alpha = ctx.config.photons.sppm.alpha;
+        let alpha = ctx.config.photons.sppm.sppm_alpha();
         self.pixels.par_iter_mut().zip(gathered).for_each(|(state, g)| {
             if g.count == 0 {
                 return;

@@ -228,7 +228,7 @@ impl<'a> Pass<'a> {
     /// `base_radius`, with lights chosen by `pick` ([`light_choice`]).
     fn new(ctx: &Context, mode: Mode, index: u32, base_radius: f32, pick: &'a [f32]) -> Pass<'a> {
         let c = ctx.config;
-        let radius = base_radius / ((index + 1) as f32).powf(0.5 * (1.0 - c.photons.sppm.alpha));
+        let radius = base_radius / ((index + 1) as f32).powf(0.5 * (1.0 - c.photons.sppm.vcm_alpha()));
         let light_paths = c.width as usize * c.height as usize;
         let eta = std::f64::consts::PI * mis(radius) * light_paths as f64;
         let merging = mode == Mode::VertexMerging;
