@@ -580,9 +580,6 @@ impl<'a> Progressive<'a> {
         points: &[Option<VisiblePoint>],
         photons: u32,
     ) -> (Vec<Gathered>, Vec<(usize, Vec3)>, RayCount) {
-        if !points.iter().flatten().any(|vp| vp.radius > 0.0) {
-            return (vec![Gathered::default(); points.len()], Vec::new(), RayCount::default());
-        }
         let ctx = &self.ctx;
         let radii: Vec<f32> = self.pixels.iter().map(|s| s.radius).collect();
         let scene = self.ctx.scene();
@@ -643,6 +640,13 @@ impl<'a> Progressive<'a> {
             arrived.extend(chunk.photons);
             to_camera.extend(chunk.to_camera);
             rays += chunk.rays;
+        }
+        // With no visible point to gather (the region's first camera paths
+        // all missed diffuse and glossy surfaces this pass), the photons
+        // still went to the camera: a tile must get the same light there
+        // as the whole image does.
+        if !points.iter().flatten().any(|vp| vp.radius > 0.0) {
+            return (vec![Gathered::default(); points.len()], to_camera, rays);
         }
         let search = RangeSearch::new(&arrived, |(photon, _)| photon.position);
         // The flux a visible point gathers from the photons `found` within
@@ -778,10 +782,10 @@ fn caustic_gathering_weight(ctx: &Context, vp: &VisiblePoint) -> f32 {
 /// fold lines and edges are sharper than a disc, which blurs them, and
 /// the heuristic sees only noise: here `k / 2` stands in for `k`.
 ///
-/// Measured at 57 passes, four seeds a box, RMSE against the VCM
-/// references (BENCHMARKS.md, issue 16): gathering all such paths 0.0214 on the
-/// area-lit Cornell box and 0.0260 on the point-lit one; light tracing all
-/// of them 0.0223 and 0.0219 (sharp caustics, but the mirror sphere's dim
+/// Measured at 57 passes (alpha 0.7), four seeds a box, RMSE against the
+/// VCM references (BENCHMARKS.md, issue 16): gathering all such paths
+/// 0.0214 on the area-lit Cornell box and 0.0260 on the point-lit one;
+/// light tracing all of them 0.0223 and 0.0219 (sharp caustics, but the mirror sphere's dim
 /// caustic over the walls is noisier by light tracing); the balance and
 /// power heuristics with `k` 0.0194 / 0.0222 and 0.0194 / 0.0221; with
 /// `k / 2` 0.0194 / 0.0216 and 0.0195 / 0.0214 (this); with `k / 4` 0.0195
