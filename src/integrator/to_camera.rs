@@ -15,7 +15,7 @@ pub(crate) struct CameraView {
     /// Unit direction from the point to the eye.
     pub to_eye: Vec3,
     /// Squared distance from the point to the eye.
-    pub distance2: f32,
+    distance2: f32,
     /// Image-plane area (in pixels) per unit solid angle seen from the eye
     /// in the point's direction.
     image_per_solid_angle: f32,

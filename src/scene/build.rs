@@ -153,10 +153,14 @@ impl Builder<'_> {
                 ))
             }
         };
-        let alpha = p.sppm_alpha.as_ref().map(|a| (a.get_ref().0, a.span()));
-        if let Some((alpha, span)) = alpha.clone().filter(|(a, _)| !(*a > 0.0 && *a < 1.0)) {
-            return Err(self
-                .error_at(span, format!("sppm_alpha must lie between 0 and 1 (exclusive), found {alpha}")));
+        if let Some(a) = &p.sppm_alpha {
+            let alpha = a.get_ref().0;
+            if !(alpha > 0.0 && alpha < 1.0) {
+                return Err(self.error_at(
+                    a.span(),
+                    format!("sppm_alpha must lie between 0 and 1 (exclusive), found {alpha}"),
+                ));
+            }
         }
         Ok(PhotonConfig {
             global_photons: p.global,
@@ -173,7 +177,7 @@ impl Builder<'_> {
                 passes: p.passes,
                 photons_per_pass: p.pass_photons,
                 initial_radius: p.sppm_radius.map(|r| r.0),
-                alpha: alpha.map(|(a, _)| a),
+                alpha: p.sppm_alpha.as_ref().map(|a| a.get_ref().0),
             },
         })
     }

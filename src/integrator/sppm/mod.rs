@@ -582,8 +582,8 @@ impl<'a> Progressive<'a> {
     ) -> (Vec<Gathered>, Vec<(usize, Vec3)>, RayCount) {
         let ctx = &self.ctx;
         let radii: Vec<f32> = self.pixels.iter().map(|s| s.radius).collect();
-        let scene = self.ctx.scene();
-        let config = self.ctx.config;
+        let scene = ctx.scene();
+        let config = ctx.config;
         // `emit` gives each photon its light's power over the photons
         // emitted; this makes that over a whole pass's count.
         let share = photons as f32 / config.photons.sppm.photons_per_pass as f32;
