@@ -127,6 +127,29 @@ fn a_time_budget_leaves_time_for_a_lights_edge() {
 }
 
 #[test]
+fn a_budget_overrun_leaves_a_lights_edge_its_fewest_samples() {
+    // A budget of a millisecond: the first look and the first round of
+    // camera samples (or pass) already take longer, so no time is left at
+    // the end. The edge's pixels still take the fewest samples the rounds
+    // plan for them (64), which cost little: without them, a pixel that
+    // one camera sample of a few found on the light stays far too bright.
+    let scene = scene();
+    let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
+    let base = RenderConfig { width: 24, height: 24, time: Some(0.001), ..scene.config.clone() };
+    for integrator in [IntegratorKind::Path, IntegratorKind::Photon, IntegratorKind::Sppm] {
+        let mut config = RenderConfig { integrator, ..base.clone() };
+        config.photons.sppm.photons_per_pass = 1_000;
+        let rendered = caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap();
+        let notes = &rendered.stats.notes;
+        let took = notes
+            .iter()
+            .find_map(|n| n.strip_prefix("lights' edges: "))
+            .and_then(|n| n.split(" more samples").next()?.rsplit(' ').next()?.parse::<u32>().ok());
+        assert!(took.is_some_and(|n| n >= 64), "{integrator:?}: {notes:?}");
+    }
+}
+
+#[test]
 fn pixels_away_from_a_lights_edge_are_left_alone() {
     // One sample goes through the pixel's centre: nothing to refine.
     let scene = scene();

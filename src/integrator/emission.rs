@@ -156,11 +156,21 @@ impl LightEdges {
         self.look_seconds
     }
 
-    /// The most emission samples each of these pixels can take within
-    /// `seconds`.
-    pub fn extra_within(&self, seconds: f64) -> u32 {
+    /// The emission samples each of these pixels takes after a render to a
+    /// time budget of `samples` camera samples a pixel (on average), with
+    /// `seconds` of the budget left: [`LightEdges::extra_for`] as the
+    /// render planned, fewer if the time left affords fewer, but never
+    /// fewer than [`MIN_EXTRA`]. The render's rounds (or passes) leave
+    /// [`LightEdges::seconds_after`] for this, which counts at least that
+    /// many; a last round that takes longer than planned (a small round
+    /// costs more a sample: it starts and ends its threads all the same)
+    /// must not take them. At 1 s on the area-lit Cornell box such a round
+    /// left the light's edge row 7 of its 64, and half the seeds showed
+    /// that row's pixels at twice their brightness (BENCHMARKS.md).
+    pub fn extra_after(&self, samples: f64, seconds: f64) -> u32 {
         let each = self.pixels.len() as f64 * self.seconds_per_sample;
-        (seconds / each.max(1e-12)).clamp(0.0, MAX_EXTRA as f64) as u32
+        let within = (seconds / each.max(1e-12)).clamp(0.0, MAX_EXTRA as f64) as u32;
+        Self::extra_for(samples).min(within.max(MIN_EXTRA))
     }
 
     /// Gives each pixel of `film` (the region's) where an edge shows

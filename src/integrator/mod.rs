@@ -314,7 +314,7 @@ pub fn render_with_maps(
         (Some(budget), Some(counts)) => edges.as_ref().and_then(|edges| {
             let mean = counts.iter().map(|&n| n as f64).sum::<f64>() / counts.len().max(1) as f64;
             let left = budget as f64 - start.elapsed().as_secs_f64();
-            let extra = LightEdges::extra_for(mean).min(edges.extra_within(left));
+            let extra = edges.extra_after(mean, left);
             edges.refine(&ctx, &mut rendered.film, &|i| counts[i], extra, &mut rays)
         }),
         (Some(_), None) => None,
