@@ -151,6 +151,24 @@ impl LightEdges {
         self.pixels.len() as f64 * Self::extra_for(samples) as f64 * self.seconds_per_sample
     }
 
+    /// Whether pixel `(x, y)` of the image takes the refinement.
+    pub fn refines(&self, (x, y): (u32, u32)) -> bool {
+        let r = self.region;
+        let inside = (r.x0..r.x1).contains(&x) && (r.y0..r.y1).contains(&y);
+        inside
+            && self
+                .pixels
+                .binary_search(&((y - r.y0) as usize * r.width() as usize + (x - r.x0) as usize))
+                .is_ok()
+    }
+
+    /// The share of its emission's variance a refined pixel keeps: at least
+    /// [`EXTRA_PER_SAMPLE`] emission samples join each of its camera
+    /// samples (more where the render takes fewer than 8 a pixel).
+    pub fn variance_kept() -> f64 {
+        1.0 / (1 + EXTRA_PER_SAMPLE) as f64
+    }
+
     /// The wall-clock seconds the first look took.
     pub fn look_seconds(&self) -> f64 {
         self.look_seconds
@@ -285,4 +303,26 @@ fn emission_along(
         sum += emission_along(ctx, sp.spawn(dir), depth + 1, carried, rng, count);
     }
     sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refined_pixel_is_found_by_its_place_in_the_image() {
+        // A tile's region; pixels 0 and 13 of it (10 wide) take the refinement.
+        let region = Region { x0: 10, y0: 5, x1: 20, y1: 9 };
+        let edges = LightEdges {
+            region,
+            pixels: vec![0, 13],
+            look_rays: RayCount::default(),
+            seconds_per_sample: 0.0,
+            look_seconds: 0.0,
+        };
+        assert!(edges.refines((10, 5)) && edges.refines((13, 6)));
+        for outside_or_not in [(11, 5), (13, 5), (9, 5), (10, 9), (20, 6), (3, 6)] {
+            assert!(!edges.refines(outside_or_not), "{outside_or_not:?}");
+        }
+    }
 }

@@ -19,7 +19,9 @@
 //! nearly every pixel, by camera rays alone: their noise (a light's edges)
 //! sits in a few pixels, which decide much of the error (at 256 x 256 on the
 //! area-lit box, 4 gather rays gave half the error of 16) and which a
-//! sparse pilot meets by chance or not at all.
+//! sparse pilot meets by chance or not at all. Where the render refines a
+//! light's edge afterwards (`emission.rs`), its noise counts at the share
+//! the refinement leaves of it ([`lights_variance`]).
 //!
 //! Tried first: a fit of `V1 + V2 / M` to independent samples' variances
 //! (`V2 / M` from the spread of each sample's gather rays), which chose 4
@@ -38,6 +40,7 @@ use super::MapLight;
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
 use crate::film::Sample;
+use crate::integrator::emission::LightEdges;
 use crate::integrator::pixels::average_over_pixel;
 use crate::integrator::whitted::WhittedTracer;
 use crate::integrator::{Context, SampleRange};
@@ -157,10 +160,39 @@ fn lights_seen(ctx: &Context, ray: &Ray, depth: u32, count: &mut RayCount) -> Ve
 
 /// The variance of `part` of one estimate, from two independent ones of
 /// each pixel: half their squared difference, summed over the channels (as
-/// RMSE sums squared errors over them) and averaged over the pixels.
-fn variance_of(a: &[Sample], b: &[Sample], part: impl Fn(&Sample) -> Vec3) -> f64 {
-    let sum: f64 = a.iter().zip(b).map(|(a, b)| (part(a) - part(b)).as_dvec3().length_squared() / 2.0).sum();
+/// RMSE sums squared errors over them), times the pixel's share `kept` of
+/// it that the render keeps, averaged over the pixels.
+fn variance_of(a: &[Sample], b: &[Sample], kept: &[f64], part: impl Fn(&Sample) -> Vec3) -> f64 {
+    let sum: f64 = (a.iter().zip(b).zip(kept))
+        .map(|((a, b), kept)| kept * (part(a) - part(b)).as_dvec3().length_squared() / 2.0)
+        .sum();
     sum / a.len().max(1) as f64
+}
+
+/// The variance the lights seen at `pixels` leave in an estimate of
+/// [`PILOT_SAMPLES`] camera samples (for the trials' sums), from two
+/// estimates of one sample each, seeds `seed` and the next; rays traced are
+/// added to `rays`.
+///
+/// Where the render refines a light's edge afterwards (`emission.rs`), the
+/// emission samples there leave a ninth of the variance or less: counted
+/// whole, the edges' noise made the pilot choose 1 ray on the area-lit box,
+/// where 4 left 7-21% less error at 2-8 s (BENCHMARKS.md).
+fn lights_variance(ctx: &Context, pixels: &[(u32, u32)], seed: u64, rays: &mut RayCount) -> f64 {
+    let seen = |ctx: &Context, ray: &Ray, _: &mut Rng, count: &mut RayCount| Sample {
+        emission: lights_seen(ctx, ray, 0, count),
+        ..Sample::default()
+    };
+    let (a, _) = estimates(ctx, pixels, (1, seed), seen, rays);
+    let (b, _) = estimates(ctx, pixels, (1, seed.wrapping_add(1)), seen, rays);
+    let kept: Vec<f64> = pixels
+        .iter()
+        .map(|&pixel| match ctx.light_edges {
+            Some(edges) if edges.refines(pixel) => LightEdges::variance_kept(),
+            _ => 1.0,
+        })
+        .collect();
+    variance_of(&a, &b, &kept, |s| s.emission) / PILOT_SAMPLES as f64
 }
 
 /// Runs the pilot for photon mapping with the maps of `light`, sized for a
@@ -173,14 +205,7 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
     // The lights seen, over (nearly) every pixel: cheap, camera rays and
     // specular chains only.
     let everywhere = pilot_pixels(ctx, LIGHT_PILOT_PIXELS, seed);
-    let seen = |ctx: &Context, ray: &Ray, _: &mut Rng, count: &mut RayCount| Sample {
-        emission: lights_seen(ctx, ray, 0, count),
-        ..Sample::default()
-    };
-    let (a, _) = estimates(ctx, &everywhere, (1, seed), seen, &mut rays);
-    let (b, _) = estimates(ctx, &everywhere, (1, seed.wrapping_add(1)), seen, &mut rays);
-    // One sample's variance; that of the other estimates' PILOT_SAMPLES.
-    let lights = variance_of(&a, &b, |s| s.emission) / PILOT_SAMPLES as f64;
+    let lights = lights_variance(ctx, &everywhere, seed, &mut rays);
     // All the rest, at a sparse set of pixels, at each count.
     let pixels = pilot_pixels(ctx, pilot_pixels_for(budget), seed);
     let samples = pixels.len().max(1) as f64 * PILOT_SAMPLES as f64;
@@ -195,7 +220,7 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
             let (a, time_a) = estimates(ctx, &pixels, (PILOT_SAMPLES, seed), traced, &mut rays);
             let (b, time_b) =
                 estimates(ctx, &pixels, (PILOT_SAMPLES, seed.wrapping_add(1)), traced, &mut rays);
-            let rest = variance_of(&a, &b, |s| s.total() - s.emission);
+            let rest = variance_of(&a, &b, &vec![1.0; a.len()], |s| s.total() - s.emission);
             Trial { gather, variance: lights + rest, seconds: (time_a + time_b) / (2.0 * samples) }
         })
         .collect();
@@ -251,6 +276,36 @@ mod tests {
     }
 
     #[test]
+    fn the_pilot_counts_a_refined_edges_noise_as_the_refinement_leaves_it() {
+        // The area-lit box's light, seen directly: its edge's pixels
+        // differ from seed to seed. Where the render refines them after,
+        // the pilot counts a ninth of their variance, no more elsewhere.
+        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
+        let scene = crate::Scene::load(&file).unwrap();
+        let accel = crate::accel::build(crate::accel::Backend::Native, &scene.triangle_views()).unwrap();
+        // A budget, as the pilot has: one camera sample a pixel is then
+        // spread over it, not through its centre.
+        let config = crate::RenderConfig { width: 48, height: 48, time: Some(2.0), ..scene.config.clone() };
+        let ctx = Context::new(&scene, accel.as_ref(), &config);
+        let edges = LightEdges::find(&ctx).expect("an area light");
+        let pixels = pilot_pixels(&ctx, LIGHT_PILOT_PIXELS, 7);
+        let refined: Vec<(u32, u32)> = pixels.iter().copied().filter(|&p| edges.refines(p)).collect();
+        let others: Vec<(u32, u32)> = pixels.iter().copied().filter(|&p| !edges.refines(p)).collect();
+        assert!(!refined.is_empty() && !others.is_empty(), "{} refined", refined.len());
+        let with = Context { light_edges: Some(&edges), ..ctx };
+        let variance = |ctx: &Context, pixels: &[(u32, u32)]| {
+            lights_variance(ctx, pixels, 7, &mut RayCount::default()) * pixels.len() as f64
+        };
+        let (whole, kept) = (variance(&ctx, &refined), variance(&with, &refined));
+        assert!(whole > 0.0, "the edge's pixels agree");
+        assert!((kept - whole / 9.0).abs() <= 1e-9 * whole, "{kept} against {whole}");
+        assert_eq!(variance(&ctx, &others), variance(&with, &others));
+        // Over all of them: the sum of the two parts.
+        let all = variance(&with, &pixels);
+        assert!((all - kept - variance(&ctx, &others)).abs() <= 1e-9 * all, "{all}");
+    }
+
+    #[test]
     fn the_best_count_leaves_the_least_variance_for_the_time() {
         let t = |gather, variance, seconds| Trial { gather, variance, seconds };
         // Point-light-like: sixteen rays cut the variance tenfold for 2.5x the time.
@@ -269,9 +324,12 @@ mod tests {
         let light = |emission: Vec3, direct: Vec3| Sample { emission, direct, ..Sample::default() };
         let a = [light(Vec3::new(1.0, 0.0, 0.0), Vec3::ZERO), light(Vec3::ZERO, Vec3::ONE)];
         let b = [light(Vec3::new(3.0, 0.0, 0.0), Vec3::ONE), light(Vec3::new(0.0, 2.0, 2.0), Vec3::ONE)];
+        let whole = [1.0, 1.0];
         // Emission: (4 / 2 + 8 / 2) / 2 pixels.
-        assert!((variance_of(&a, &b, |s| s.emission) - 3.0).abs() < 1e-12);
+        assert!((variance_of(&a, &b, &whole, |s| s.emission) - 3.0).abs() < 1e-12);
         // Direct: (3 / 2 + 0) / 2 pixels.
-        assert!((variance_of(&a, &b, |s| s.direct) - 0.75).abs() < 1e-12);
+        assert!((variance_of(&a, &b, &whole, |s| s.direct) - 0.75).abs() < 1e-12);
+        // The first pixel's emission refined afterwards: (4 / 2 / 9 + 8 / 2) / 2.
+        assert!((variance_of(&a, &b, &[1.0 / 9.0, 1.0], |s| s.emission) - 19.0 / 9.0).abs() < 1e-12);
     }
 }
