@@ -177,7 +177,7 @@ fn variance_of(a: &[Sample], b: &[Sample], kept: &[f64], part: impl Fn(&Sample) 
 /// Where the render refines a light's edge afterwards (`emission.rs`), the
 /// emission samples there leave a ninth of the variance or less: counted
 /// whole, the edges' noise made the pilot choose 1 ray on the area-lit box,
-/// where 4 left 7-21% less error at 2-8 s (BENCHMARKS.md).
+/// where 4 left 6-22% less error at 2-8 s (BENCHMARKS.md).
 fn lights_variance(ctx: &Context, pixels: &[(u32, u32)], seed: u64, rays: &mut RayCount) -> f64 {
     let seen = |ctx: &Context, ray: &Ray, _: &mut Rng, count: &mut RayCount| Sample {
         emission: lights_seen(ctx, ray, 0, count),
