@@ -160,11 +160,16 @@ fn lights_seen(ctx: &Context, ray: &Ray, depth: u32, count: &mut RayCount) -> Ve
 
 /// The variance of `part` of one estimate, from two independent ones of
 /// each pixel: half their squared difference, summed over the channels (as
-/// RMSE sums squared errors over them), times the pixel's share `kept` of
-/// it that the render keeps, averaged over the pixels.
-fn variance_of(a: &[Sample], b: &[Sample], kept: &[f64], part: impl Fn(&Sample) -> Vec3) -> f64 {
-    let sum: f64 = (a.iter().zip(b).zip(kept))
-        .map(|((a, b), kept)| kept * (part(a) - part(b)).as_dvec3().length_squared() / 2.0)
+/// RMSE sums squared errors over them), times the share `kept(i)` of it
+/// that the render keeps at pixel `i`, averaged over the pixels.
+fn variance_of(
+    a: &[Sample],
+    b: &[Sample],
+    kept: impl Fn(usize) -> f64,
+    part: impl Fn(&Sample) -> Vec3,
+) -> f64 {
+    let sum: f64 = (a.iter().zip(b).enumerate())
+        .map(|(i, (a, b))| kept(i) * (part(a) - part(b)).as_dvec3().length_squared() / 2.0)
         .sum();
     sum / a.len().max(1) as f64
 }
@@ -185,14 +190,11 @@ fn lights_variance(ctx: &Context, pixels: &[(u32, u32)], seed: u64, rays: &mut R
     };
     let (a, _) = estimates(ctx, pixels, (1, seed), seen, rays);
     let (b, _) = estimates(ctx, pixels, (1, seed.wrapping_add(1)), seen, rays);
-    let kept: Vec<f64> = pixels
-        .iter()
-        .map(|&pixel| match ctx.light_edges {
-            Some(edges) if edges.refines(pixel) => LightEdges::variance_kept(),
-            _ => 1.0,
-        })
-        .collect();
-    variance_of(&a, &b, &kept, |s| s.emission) / PILOT_SAMPLES as f64
+    let kept = |i: usize| match ctx.light_edges {
+        Some(edges) if edges.refines(pixels[i]) => LightEdges::variance_kept(),
+        _ => 1.0,
+    };
+    variance_of(&a, &b, kept, |s| s.emission) / PILOT_SAMPLES as f64
 }
 
 /// Runs the pilot for photon mapping with the maps of `light`, sized for a
@@ -220,7 +222,7 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
             let (a, time_a) = estimates(ctx, &pixels, (PILOT_SAMPLES, seed), traced, &mut rays);
             let (b, time_b) =
                 estimates(ctx, &pixels, (PILOT_SAMPLES, seed.wrapping_add(1)), traced, &mut rays);
-            let rest = variance_of(&a, &b, &vec![1.0; a.len()], |s| s.total() - s.emission);
+            let rest = variance_of(&a, &b, |_| 1.0, |s| s.total() - s.emission);
             Trial { gather, variance: lights + rest, seconds: (time_a + time_b) / (2.0 * samples) }
         })
         .collect();
@@ -324,12 +326,11 @@ mod tests {
         let light = |emission: Vec3, direct: Vec3| Sample { emission, direct, ..Sample::default() };
         let a = [light(Vec3::new(1.0, 0.0, 0.0), Vec3::ZERO), light(Vec3::ZERO, Vec3::ONE)];
         let b = [light(Vec3::new(3.0, 0.0, 0.0), Vec3::ONE), light(Vec3::new(0.0, 2.0, 2.0), Vec3::ONE)];
-        let whole = [1.0, 1.0];
         // Emission: (4 / 2 + 8 / 2) / 2 pixels.
-        assert!((variance_of(&a, &b, &whole, |s| s.emission) - 3.0).abs() < 1e-12);
+        assert!((variance_of(&a, &b, |_| 1.0, |s| s.emission) - 3.0).abs() < 1e-12);
         // Direct: (3 / 2 + 0) / 2 pixels.
-        assert!((variance_of(&a, &b, &whole, |s| s.direct) - 0.75).abs() < 1e-12);
+        assert!((variance_of(&a, &b, |_| 1.0, |s| s.direct) - 0.75).abs() < 1e-12);
         // The first pixel's emission refined afterwards: (4 / 2 / 9 + 8 / 2) / 2.
-        assert!((variance_of(&a, &b, &[1.0 / 9.0, 1.0], |s| s.emission) - 19.0 / 9.0).abs() < 1e-12);
+        assert!((variance_of(&a, &b, |i| [1.0 / 9.0, 1.0][i], |s| s.emission) - 19.0 / 9.0).abs() < 1e-12);
     }
 }
