@@ -653,7 +653,8 @@ impl<'a> Progressive<'a> {
         // its radius, in the order they were emitted.
         let gathered = |vp: &VisiblePoint, found: &[u32]| {
             let mut g = Gathered::default();
-            let caustic_weight = caustic_gathering_weight(ctx, vp);
+            // Worked out at the first caustic photon: most points find none.
+            let mut caustic_weight = None;
             let mut disc = DiscShare::new(vp.p, vp.n, vp.radius);
             for &i in found {
                 let (photon, bounces) = &arrived[i as usize];
@@ -667,7 +668,8 @@ impl<'a> Progressive<'a> {
                 let f = scene.materials[vp.material].brdf(vp.n, photon.incoming, vp.wo);
                 let flux = vp.weight * f * photon.power * share;
                 if !photon.indirect {
-                    g.caustic += flux * caustic_weight;
+                    g.caustic +=
+                        flux * *caustic_weight.get_or_insert_with(|| caustic_gathering_weight(ctx, vp));
                 } else {
                     g.global += flux;
                 }
