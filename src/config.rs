@@ -177,7 +177,7 @@ pub struct PhotonConfig {
     pub cone_filter: Option<f32>,
     /// Final-gathering rays per camera sample (so the gathering grows with
     /// the samples); 0 shows the global map directly. With a time budget
-    /// of 2 s or more (and a count above 0) photon mapping chooses the
+    /// of 1 s or more (and a count above 0) photon mapping chooses the
     /// count for itself by a pilot.
     pub gather_rays: u32,
     /// Whether gather rays favour the directions the global map's photons

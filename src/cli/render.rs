@@ -33,7 +33,7 @@ pub struct RenderArgs {
     /// Refine for this many seconds instead of a fixed sample count: more
     /// camera samples (and gather rays) in rounds for the path tracer,
     /// Whitted and photon mapping, more passes for SPPM, VCM, BDPT and
-    /// light tracing; from 2 s on, photon mapping chooses its gather rays
+    /// light tracing; from 1 s on, photon mapping chooses its gather rays
     /// per sample by a short pilot (overrides [render] time).
     #[arg(long, allow_negative_numbers = true)]
     time: Option<f32>,
@@ -126,7 +126,7 @@ pub struct SettingArgs {
     #[arg(long, allow_negative_numbers = true)]
     caustic_radius: Option<f32>,
     /// Final-gathering rays per camera sample; 0 shows the global map
-    /// directly; with a time budget of 2 s or more, a pilot chooses the
+    /// directly; with a time budget of 1 s or more, a pilot chooses the
     /// count unless it is 0 (overrides [photons] gather_rays).
     #[arg(long, allow_negative_numbers = true)]
     gather_rays: Option<u32>,

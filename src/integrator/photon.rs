@@ -125,7 +125,7 @@ impl Integrator for PhotonMapping {
         Some(maps)
     }
 
-    /// With final gathering and a budget of at least 2 s (`PILOT_FROM_SECONDS`),
+    /// With final gathering and a budget of at least 1 s (`PILOT_FROM_SECONDS`),
     /// the gather rays per camera sample that spend the budget best, from a
     /// pilot on the maps built (`gather_count`).
     fn tuned_for_time(&self, ctx: &Context) -> Option<Tuned> {
@@ -175,10 +175,12 @@ impl Integrator for PhotonMapping {
 }
 
 /// The shortest budget for which photon mapping chooses its gather rays by
-/// a pilot: at 1 s on the 256 x 256 Cornell boxes the pilot's 0.1-0.15 s
-/// cost more samples than its choice gave back (RMSE 0.24 -> 0.29 under
-/// the point light, the same under the area light; BENCHMARKS.md).
-const PILOT_FROM_SECONDS: f64 = 2.0;
+/// a pilot: at 1 s on the 256 x 256 Cornell boxes the pilot (0.06 s) takes
+/// a fifth off the error under the point light, and its bright gathering
+/// specks (16 rays, where the scene says 4), and costs 4% more under the
+/// area light, where it keeps the scene's 4 (BENCHMARKS.md). Below 1 s
+/// its share of the budget grows.
+const PILOT_FROM_SECONDS: f64 = 1.0;
 
 /// Gather rays traced together, at most (they wait on the stack).
 const GATHER_BATCH: usize = 16;

@@ -16,7 +16,7 @@
 //! variance times seconds is what a count costs in error at a fixed budget
 //! (variance falls as one over the time): the cheapest count wins. The
 //! lights seen straight or through mirrors and glass are measured apart, at
-//! nearly every pixel, by camera rays alone: their noise (a light's edges)
+//! many more pixels, by camera rays alone: their noise (a light's edges)
 //! sits in a few pixels, which decide much of the error (at 256 x 256 on the
 //! area-lit box, 4 gather rays gave half the error of 16) and which a
 //! sparse pilot meets by chance or not at all. Where the render refines a
@@ -54,8 +54,9 @@ const PILOT_SAMPLES: u32 = 8;
 /// Pilot pixels per second of budget, and the fewest and most.
 const PILOT_PIXELS_PER_SECOND: f64 = 128.0;
 const PILOT_PIXELS: (u32, u32) = (128, 512);
-/// Pixels whose lights seen the pilot measures, at most (all of a 256 x 256 image).
-const LIGHT_PILOT_PIXELS: u32 = 65_536;
+/// Pixels whose lights seen the pilot measures, at most (one in eight of
+/// a 256 x 256 image: as many camera samples as one at every pixel).
+const LIGHT_PILOT_PIXELS: u32 = 8_192;
 /// Seed offset of the pilot's random streams (apart from the render's).
 const PILOT_SEED: u64 = 0x5eed_9a7e_0f91_1700;
 
@@ -158,6 +159,11 @@ fn lights_seen(ctx: &Context, ray: &Ray, depth: u32, count: &mut RayCount) -> Ve
         .sum()
 }
 
+/// A camera sample of the lights seen along `ray` ([`lights_seen`]), as emission.
+fn lights_sample(ctx: &Context, ray: &Ray, _: &mut Rng, count: &mut RayCount) -> Sample {
+    Sample { emission: lights_seen(ctx, ray, 0, count), ..Sample::default() }
+}
+
 /// The variance of `part` of one estimate, from two independent ones of
 /// each pixel: half their squared difference, summed over the channels (as
 /// RMSE sums squared errors over them), times the share `kept(i)` of it
@@ -175,26 +181,29 @@ fn variance_of(
 }
 
 /// The variance the lights seen at `pixels` leave in an estimate of
-/// [`PILOT_SAMPLES`] camera samples (for the trials' sums), from two
-/// estimates of one sample each, seeds `seed` and the next; rays traced are
-/// added to `rays`.
+/// [`PILOT_SAMPLES`] camera samples (for the trials' sums), from two such
+/// estimates, seeds `seed` and the next; rays traced are added to `rays`.
+///
+/// Measured with the render's own samples, as the trials are, not as one
+/// sample's variance over their count: the samples of a pixel are spread
+/// evenly over it, and across a light's edge their mean's variance falls
+/// faster than one over their number. Counted from one sample at every
+/// pixel, the lights' part was 2-3x what it is and drowned the gathering's:
+/// at 1 s on the area-lit box the pilot chose 1 ray in two seeds of six,
+/// where 4 rays left a quarter less error (BENCHMARKS.md).
 ///
 /// Where the render refines a light's edge afterwards (`emission.rs`), the
 /// emission samples there leave a ninth of the variance or less: counted
 /// whole, the edges' noise made the pilot choose 1 ray on the area-lit box,
 /// where 4 left 6-22% less error at 2-8 s (BENCHMARKS.md).
 fn lights_variance(ctx: &Context, pixels: &[(u32, u32)], seed: u64, rays: &mut RayCount) -> f64 {
-    let seen = |ctx: &Context, ray: &Ray, _: &mut Rng, count: &mut RayCount| Sample {
-        emission: lights_seen(ctx, ray, 0, count),
-        ..Sample::default()
-    };
-    let (a, _) = estimates(ctx, pixels, (1, seed), seen, rays);
-    let (b, _) = estimates(ctx, pixels, (1, seed.wrapping_add(1)), seen, rays);
+    let (a, _) = estimates(ctx, pixels, (PILOT_SAMPLES, seed), lights_sample, rays);
+    let (b, _) = estimates(ctx, pixels, (PILOT_SAMPLES, seed.wrapping_add(1)), lights_sample, rays);
     let kept = |i: usize| match ctx.light_edges {
         Some(edges) if edges.refines(pixels[i]) => LightEdges::variance_kept(),
         _ => 1.0,
     };
-    variance_of(&a, &b, kept, |s| s.emission) / PILOT_SAMPLES as f64
+    variance_of(&a, &b, kept, |s| s.emission)
 }
 
 /// Runs the pilot for photon mapping with the maps of `light`, sized for a
@@ -204,8 +213,8 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
     let mut rays = RayCount::default();
     let started = Instant::now();
     let seed = ctx.config.seed.wrapping_add(PILOT_SEED);
-    // The lights seen, over (nearly) every pixel: cheap, camera rays and
-    // specular chains only.
+    // The lights seen, at many pixels: cheap, camera rays and specular
+    // chains only.
     let everywhere = pilot_pixels(ctx, LIGHT_PILOT_PIXELS, seed);
     let lights = lights_variance(ctx, &everywhere, seed, &mut rays);
     // All the rest, at a sparse set of pixels, at each count.
@@ -247,8 +256,8 @@ mod tests {
     use super::*;
 
     /// The pilot's rays count with the render's: at least a camera ray for
-    /// each of its samples (two of the lights seen at each pixel it looks
-    /// at; two estimates of `PILOT_SAMPLES` at each of its pixels for each
+    /// each of its samples (two estimates of `PILOT_SAMPLES` of the lights
+    /// seen at each pixel it looks at, and at each of its pixels for each
     /// count it tries).
     #[test]
     fn the_pilot_counts_its_rays() {
@@ -272,9 +281,19 @@ mod tests {
         let seed = config.seed.wrapping_add(PILOT_SEED);
         let seen = pilot_pixels(&ctx, LIGHT_PILOT_PIXELS, seed).len() as u64;
         let tried = pilot_pixels(&ctx, pilot_pixels_for(2.0), seed).len() as u64;
-        let camera_rays = 2 * seen + CANDIDATES.len() as u64 * 2 * tried * PILOT_SAMPLES as u64;
+        let camera_rays = 2 * (seen + CANDIDATES.len() as u64 * tried) * PILOT_SAMPLES as u64;
         assert!(seen == 24 * 16 && tried > 0, "{seen}, {tried}");
         assert!(rays.closest >= camera_rays, "{rays:?} for {camera_rays} camera rays");
+    }
+
+    /// The area-lit Cornell box at 48 x 48, with a budget as the pilot has
+    /// one (one camera sample a pixel is then spread over it, not through
+    /// its centre).
+    fn small_area_lit_box() -> (crate::Scene, crate::RenderConfig) {
+        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
+        let scene = crate::Scene::load(&file).unwrap();
+        let config = crate::RenderConfig { width: 48, height: 48, time: Some(2.0), ..scene.config.clone() };
+        (scene, config)
     }
 
     #[test]
@@ -282,12 +301,8 @@ mod tests {
         // The area-lit box's light, seen directly: its edge's pixels
         // differ from seed to seed. Where the render refines them after,
         // the pilot counts a ninth of their variance, no more elsewhere.
-        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
-        let scene = crate::Scene::load(&file).unwrap();
+        let (scene, config) = small_area_lit_box();
         let accel = crate::accel::build(crate::accel::Backend::Native, &scene.triangle_views()).unwrap();
-        // A budget, as the pilot has: one camera sample a pixel is then
-        // spread over it, not through its centre.
-        let config = crate::RenderConfig { width: 48, height: 48, time: Some(2.0), ..scene.config.clone() };
         let ctx = Context::new(&scene, accel.as_ref(), &config);
         let edges = LightEdges::find(&ctx).expect("an area light");
         let pixels = pilot_pixels(&ctx, LIGHT_PILOT_PIXELS, 7);
@@ -305,6 +320,46 @@ mod tests {
         // Over all of them: the sum of the two parts.
         let all = variance(&with, &pixels);
         assert!((all - kept - variance(&ctx, &others)).abs() <= 1e-9 * all, "{all}");
+    }
+
+    #[test]
+    fn the_lights_variance_is_that_of_the_renders_own_samples() {
+        // Across the area light's edge the samples of a pixel, spread evenly
+        // over it, make a mean whose variance falls faster than one over
+        // their number. The pilot's two estimates must measure what the
+        // spread of many independent ones shows, not one sample's variance
+        // over their number (ten times as much here).
+        let (scene, config) = small_area_lit_box();
+        let accel = crate::accel::build(crate::accel::Backend::Native, &scene.triangle_views()).unwrap();
+        let ctx = Context::new(&scene, accel.as_ref(), &config);
+        let pixels = pilot_pixels(&ctx, LIGHT_PILOT_PIXELS, 7);
+        // The pilot's measure, averaged over eight pilots (one's two
+        // estimates are within 40% of the spread on their own).
+        let pilot = (0..8).map(|k| lights_variance(&ctx, &pixels, 1000 + 2 * k, &mut RayCount::default()));
+        let pilot = pilot.sum::<f64>() / 8.0;
+        // Each pixel's variance among `RUNS` estimates of `samples` each,
+        // summed over the channels, averaged over the pixels.
+        const RUNS: u64 = 24;
+        let spread = |samples: u32| {
+            let runs: Vec<Vec<Sample>> = (0..RUNS)
+                .map(|k| {
+                    estimates(&ctx, &pixels, (samples, 100 + k), lights_sample, &mut RayCount::default()).0
+                })
+                .collect();
+            let per_pixel = |i: usize| {
+                let mean = runs.iter().map(|r| r[i].emission.as_dvec3()).sum::<glam::DVec3>() / RUNS as f64;
+                let squares: f64 =
+                    runs.iter().map(|r| (r[i].emission.as_dvec3() - mean).length_squared()).sum();
+                squares / (RUNS - 1) as f64
+            };
+            (0..pixels.len()).map(per_pixel).sum::<f64>() / pixels.len() as f64
+        };
+        let (of_estimates, of_one) = (spread(PILOT_SAMPLES), spread(1) / PILOT_SAMPLES as f64);
+        assert!(
+            of_estimates > 0.0 && (pilot / of_estimates - 1.0).abs() < 0.3,
+            "{pilot} against {of_estimates}"
+        );
+        assert!(of_one > 3.0 * of_estimates, "{of_one} against {of_estimates}");
     }
 
     #[test]
