@@ -176,7 +176,7 @@ impl Integrator for PhotonMapping {
 
 /// The shortest budget for which photon mapping chooses its gather rays by
 /// a pilot: at 1 s on the 256 x 256 Cornell boxes the pilot (0.06 s) takes
-/// a fifth off the error under the point light, and its bright gathering
+/// 18% off the error under the point light, and its bright gathering
 /// specks (16 rays, where the scene says 4), and costs 4% more under the
 /// area light, where it keeps the scene's 4 (BENCHMARKS.md). Below 1 s
 /// its share of the budget grows.
