@@ -215,8 +215,8 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
     let seed = ctx.config.seed.wrapping_add(PILOT_SEED);
     // The lights seen, at many pixels: cheap, camera rays and specular
     // chains only.
-    let everywhere = pilot_pixels(ctx, LIGHT_PILOT_PIXELS, seed);
-    let lights = lights_variance(ctx, &everywhere, seed, &mut rays);
+    let lights_pixels = pilot_pixels(ctx, LIGHT_PILOT_PIXELS, seed);
+    let lights = lights_variance(ctx, &lights_pixels, seed, &mut rays);
     // All the rest, at a sparse set of pixels, at each count.
     let pixels = pilot_pixels(ctx, pilot_pixels_for(budget), seed);
     let samples = pixels.len().max(1) as f64 * PILOT_SAMPLES as f64;
@@ -245,7 +245,7 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
          {}; variance x time a sample: {})",
         started.elapsed().as_secs_f64(),
         pixels.len(),
-        everywhere.len(),
+        lights_pixels.len(),
         tried.join(", ")
     );
     (best, note, rays)
