@@ -131,7 +131,7 @@ pub(crate) struct Precomputed {
 
 /// The edge of the cells that answer final gathering's record lookups, in
 /// records' median gathering radii (about two records' spacing: records sit
-/// at every 12th photon, about 8 to a disc). 1.2 and 1.6 were measured
+/// at every 16th photon, about 6 to a disc). 1.2 and 1.6 were measured
 /// alike (BENCHMARKS.md, issue 17).
 const CELL_PER_RADIUS: f32 = 1.5;
 
@@ -728,11 +728,10 @@ mod tests {
             * std::f32::consts::PI;
         assert!((l.x - 1.0).abs() < 0.1, "{l}");
         // Precomputed at every 4th photon (the densest stride used) and at
-        // every k/8-th (the default rule: about 8 points per disc), the
-        // lookup agrees with the full estimate.
+        // the default rule's stride, the lookup agrees with the full estimate.
         let mut map = map;
         let grey = Material { diffuse: Vec3::splat(0.5), ..Material::default() };
-        for stride in [4, est.k / 8] {
+        for stride in [4, crate::photon::record_stride(est.k as u32)] {
             map.precompute_irradiance(stride, &est);
             for p in [Vec3::new(0.5, 0.0, 0.5), Vec3::new(0.3, 0.0, 0.7), Vec3::new(0.8, 0.0, 0.2)] {
                 let pre = map.precomputed_radiance(p, Vec3::Y, &grey, &est);

@@ -146,16 +146,13 @@ pub fn build_maps(
     };
 
     // Both maps are built at once: neither build keeps both cores busy all
-    // the time. Gather rays only need irradiance: estimate it ahead at about
-    // 8 photons per gathering disc of `global_k`, every 12th photon by
-    // default. Christensen's every 4th put 25 in each disc and made building
-    // 2.5x slower for 0.4-0.9% less error (BENCHMARKS.md).
+    // the time. Gather rays only need irradiance: estimate it ahead.
     let start = Instant::now();
     let (global, caustic) = rayon::join(
         || {
             global.map(|photons| match for_gathering {
                 true => {
-                    let stride = (settings.global_k as usize / 8).max(4);
+                    let stride = record_stride(settings.global_k);
                     PhotonMap::with_irradiance(photons, stride, &settings.global_estimate(diagonal))
                 }
                 false => PhotonMap::new(photons),
@@ -165,6 +162,26 @@ pub fn build_maps(
     );
     stats.build_seconds = start.elapsed().as_secs_f64();
     PhotonMaps { global, caustic, for_gathering, stats }
+}
+
+/// Irradiance records per gathering disc of `global_k` photons, on average
+/// (see [`record_stride`]).
+pub(crate) const RECORDS_PER_DISC: u32 = 6;
+
+/// Every how many photons of the global map (in Morton order) irradiance is
+/// estimated ahead of final gathering, for estimates of `global_k` photons:
+/// about [`RECORDS_PER_DISC`] records in each gathering disc (every 16th
+/// photon at the default `global_k = 100`), at least every 4th.
+///
+/// Fewer records cost less to make; more make the irradiance between them
+/// finer. Christensen's every 4th (25 to a disc) made building 2.5x slower
+/// than every 12th (8 to a disc) for 0.4-0.9% less error. From 8 to 6 a
+/// disc the teapot's maps at 1M photons built in 0.68-0.74 s instead of
+/// 0.78-0.79 s, and the errors of the teapot and both Cornell boxes, at
+/// equal samples and at equal time, stayed within their noise
+/// (BENCHMARKS.md, issue 17).
+pub(crate) fn record_stride(global_k: u32) -> usize {
+    (global_k / RECORDS_PER_DISC).max(4) as usize
 }
 
 /// The most bounces the photons of the global and the caustic map make:
