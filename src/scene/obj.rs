@@ -72,11 +72,21 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
     for model in models {
         let m = &model.mesh;
         let positions: Vec<Vec3> = m.positions.chunks_exact(3).map(Vec3::from_slice).collect();
-        if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(Error::input(
-                path,
-                format!("vertex {} of object `{}` is not finite", bad + 1, model.name),
-            ));
+        if positions.iter().any(|p| !p.is_finite()) {
+            // tobj numbers an object's vertices its own way: say which of
+            // the file's `v` lines it is.
+            let fix = "give every `v` three finite numbers";
+            return Err(match first_non_finite_vertex(&text) {
+                Some((line, number)) => Error::input_at(
+                    path,
+                    Location { line, column: 1 },
+                    format!("vertex {number} is not finite; {fix}"),
+                ),
+                None => Error::input(
+                    path,
+                    format!("object `{}` has a vertex that is not finite; {fix}", model.name),
+                ),
+            });
         }
         let indices: Vec<[u32; 3]> = m.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
         if indices.iter().flatten().any(|&i| i as usize >= positions.len()) {
@@ -136,6 +146,18 @@ fn check_mtl(path: &Path, text: &str) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The line and the number (from 1, as faces count them) of the file's
+/// first `v` statement with a coordinate that is not finite (`nan`, `inf`,
+/// or beyond `f32`'s range), if any.
+fn first_non_finite_vertex(text: &str) -> Option<(usize, usize)> {
+    let vertices = text.lines().enumerate().filter(|(_, l)| l.split_whitespace().next() == Some("v"));
+    vertices.enumerate().find_map(|(number, (i, line))| {
+        let mut coordinates = line.split_whitespace().skip(1).take(3);
+        let finite = coordinates.all(|w| w.parse::<f32>().is_ok_and(f32::is_finite));
+        (!finite).then_some((i + 1, number + 1))
+    })
 }
 
 /// Lines of `f` statements that name fewer than three vertices (tobj drops them).
@@ -271,5 +293,21 @@ mod tests {
         assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").map(|p| p.0), Some(4));
         assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -3\n"), None);
         assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2//3 3\n"), None);
+    }
+
+    #[test]
+    fn a_vertex_that_is_not_finite_is_named_as_the_file_numbers_it() {
+        // The faces use vertex 4 before vertex 3, so tobj numbers the file's
+        // vertex 3 (`nan`, on line 4) fourth; the error must name the file's.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.obj");
+        let text = "# a comment\nv 0 0 0\nv 1 0 0 # a comment\nv nan 1 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\n";
+        std::fs::write(&path, text).unwrap();
+        let message = load(&path, Some(0), 0).err().expect("a NaN vertex in use").to_string();
+        assert!(message.contains("bad.obj:4:1: vertex 3 is not finite"), "{message}");
+        // Overflowing `f32` counts too; a non-finite vertex no face uses does not matter.
+        assert_eq!(first_non_finite_vertex("v 0 0 0\nvn 0 0 1\nv 1e39 0 0\n"), Some((3, 2)));
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv inf 0 0\nf 1 2 3\n").unwrap();
+        assert!(load(&path, Some(0), 0).is_ok());
     }
 }

@@ -370,7 +370,8 @@ impl<R: BufRead> DataReader<'_, R> {
             }
         }
         if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(self.error(format!("vertex {} is not finite", bad + 1)));
+            let fix = "give every vertex finite x, y and z";
+            return Err(self.error(format!("vertex {} (counted from 1) is not finite; {fix}", bad + 1)));
         }
         Ok((positions, normals))
     }
@@ -529,7 +530,7 @@ mod tests {
         let e = err(&format!("{head}0 0 0\n1 0 0\n0 1 0\n"));
         assert!(e.contains("ends in face 1"), "{e}");
         let e = err(&format!("{head}0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n"));
-        assert!(e.contains("vertex 2 is not finite"), "{e}");
+        assert!(e.contains("vertex 2 (counted from 1) is not finite"), "{e}");
         let e = err(&format!("{head}0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n"));
         assert!(e.contains("`zero` is not a number"), "{e}");
         // Counts no file could hold are an error, not an allocation failure.
