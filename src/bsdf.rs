@@ -10,7 +10,7 @@
 
 use std::f32::consts::FRAC_1_PI;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::material::Material;
 use crate::optics;
@@ -123,10 +123,33 @@ impl<'a> Bsdf<'a> {
         let [diffuse, glossy, ..] = self.choice;
         let mut pdf = diffuse * cos * FRAC_1_PI;
         if glossy > 0.0 {
-            let e = self.material.phong_exponent;
-            pdf += glossy * phong_lobe_pdf(optics::reflect(self.dir, n).dot(wi), e);
+            pdf += glossy * self.glossy_pdf(wi);
         }
         pdf
+    }
+
+    /// The glossy lobe's share of the smooth lobes' reflectance (summed
+    /// over channels): the chance that [`Bsdf::sample`], having chosen a
+    /// smooth lobe, chooses the glossy one. 0 without a glossy lobe.
+    pub fn glossy_share(&self) -> f32 {
+        let [diffuse, glossy, ..] = self.choice;
+        if glossy > 0.0 {
+            glossy / (diffuse + glossy)
+        } else {
+            0.0
+        }
+    }
+
+    /// A direction from the glossy lobe alone (about the mirror direction),
+    /// from a uniform point `u` of the unit square; its density is
+    /// [`Bsdf::glossy_pdf`]. It may point below the surface.
+    pub fn sample_glossy(&self, u: Vec2) -> Vec3 {
+        around(self.sp.reflect(self.dir), phong_lobe(u, self.material.phong_exponent))
+    }
+
+    /// The solid-angle density of [`Bsdf::sample_glossy`] at `wi`.
+    pub fn glossy_pdf(&self, wi: Vec3) -> f32 {
+        phong_lobe_pdf(optics::reflect(self.dir, self.sp.ns).dot(wi), self.material.phong_exponent)
     }
 
     /// The density the other way round: with which [`Bsdf::sample`], for
@@ -150,10 +173,7 @@ impl<'a> Bsdf<'a> {
             let (wi, kind) = if u_lobe < diffuse {
                 (around(sp.ns, cosine_hemisphere(rng.uniform2())), ScatterKind::Diffuse)
             } else {
-                (
-                    around(sp.reflect(self.dir), phong_lobe(rng.uniform2(), m.phong_exponent)),
-                    ScatterKind::Glossy,
-                )
+                (self.sample_glossy(rng.uniform2()), ScatterKind::Glossy)
             };
             let cos = wi.dot(sp.ns);
             let pdf = self.pdf(wi);
@@ -232,12 +252,12 @@ pub fn russian_roulette(q: f32, u: f32) -> Option<f32> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::accel::{Hit, Ray};
 
     /// A surface point on the plane y = 0 (normal +y), hit from above.
-    fn point() -> SurfacePoint {
+    pub(crate) fn point() -> SurfacePoint {
         let scene = crate::scene::Scene::from_toml(
             r#"
             [camera]
