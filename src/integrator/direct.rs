@@ -59,12 +59,46 @@ pub fn direct_light(
     rng: &mut Rng,
     count: &mut RayCount,
 ) -> Vec3 {
+    sampled_light(query, sp, bsdf, sampling, None, rng, count)
+}
+
+/// [`direct_light`] from `samples` stratified shadow rays per area light
+/// where another strategy also finds the area lights' fronts: each
+/// sample is weighted by the balance heuristic against `other(wi)`, the
+/// number of rays that strategy sends from `sp` times their density
+/// towards `wi`, and the other strategy adds the rest (see
+/// [`LightSamples::expected_count`]). Point and spot lights, which no ray
+/// finds, keep their whole light.
+pub fn direct_light_against(
+    query: &SceneQuery,
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    samples: u32,
+    other: &dyn Fn(Vec3) -> f32,
+    rng: &mut Rng,
+    count: &mut RayCount,
+) -> Vec3 {
+    sampled_light(query, sp, bsdf, LightSampling::Stratified { samples }, Some(other), rng, count)
+}
+
+/// [`direct_light`], and where `against` is given, [`direct_light_against`].
+fn sampled_light(
+    query: &SceneQuery,
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    sampling: LightSampling,
+    against: Option<&dyn Fn(Vec3) -> f32>,
+    rng: &mut Rng,
+    count: &mut RayCount,
+) -> Vec3 {
     let plan = LightSamples::at(&query.scene.lights, sp.p, sampling);
     // Where a batch would not pay, each shadow ray is traced as it is drawn.
     let mut batch = query.accel.batches_pay((plan.most() as usize).min(BATCH)).then(ShadowBatch::new);
     let mut sum = Vec3::ZERO;
     for (_, light, u, divide_by, expected) in plan.take(rng) {
-        let Some((ray, contribution)) = shadow_ray(sp, bsdf, sampling, light, u, divide_by, expected) else {
+        let Some((ray, contribution)) =
+            shadow_ray(sp, bsdf, sampling, against, light, u, divide_by, expected)
+        else {
             continue;
         };
         match &mut batch {
@@ -90,13 +124,16 @@ pub fn direct_light(
 /// and the light it lets through if open, divided by `divide_by` (the
 /// samples the light takes at this point, or is expected to); under
 /// multiple importance sampling, `expected` is that expected count, which
-/// multiplies the light's density against the BSDF's. `None` where the
-/// sample cannot add anything.
+/// multiplies the light's density against the BSDF's; `against`, another
+/// strategy's count times density (see [`direct_light_against`]). `None`
+/// where the sample cannot add anything.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn shadow_ray(
     sp: &SurfacePoint,
     bsdf: &Bsdf,
     sampling: LightSampling,
+    against: Option<&dyn Fn(Vec3) -> f32>,
     light: &Light,
     u: Vec2,
     divide_by: f32,
@@ -113,7 +150,15 @@ fn shadow_ray(
         return None;
     }
     let contribution = match sampling {
-        LightSampling::Stratified { .. } => f * ls.irradiance * (cos / divide_by),
+        LightSampling::Stratified { .. } => match against {
+            Some(other) if !light.is_delta() => {
+                // Each of this light's samples has its density; `divide_by`
+                // is how many it takes here (or is expected to).
+                let p_light = divide_by * light.pdf_solid_angle(ls.position, sp.p);
+                f * ls.irradiance * (cos / divide_by) * (p_light / (p_light + other(wi)))
+            }
+            _ => f * ls.irradiance * (cos / divide_by),
+        },
         LightSampling::MultipleImportance if light.is_delta() => f * ls.irradiance * (cos / divide_by),
         LightSampling::MultipleImportance => {
             let p_light = expected * light.pdf_solid_angle(ls.position, sp.p);
@@ -209,8 +254,16 @@ impl<'l> LightSamples<'l> {
     /// weights where a path meets a light, or a light subpath leaves one.
     #[inline]
     pub fn mis_factor(lights: &Lights, light: &Light, p: Vec3) -> f32 {
-        let plan = LightSamples::at(lights, p, LightSampling::MultipleImportance);
-        let Some((choice, draws)) = plan.draws() else { return 1.0 };
+        Self::expected_count(lights, light, p, LightSampling::MultipleImportance)
+    }
+
+    /// How many samples `light` (one of `lights`) takes at `p` under
+    /// `sampling`, or is expected to where the point draws among the
+    /// lights: what its [`Light::pdf_solid_angle`] is multiplied by for
+    /// the light-sampling strategy's part of a balance heuristic.
+    pub fn expected_count(lights: &Lights, light: &Light, p: Vec3, sampling: LightSampling) -> f32 {
+        let plan = LightSamples::at(lights, p, sampling);
+        let Some((choice, draws)) = plan.draws() else { return plan.of(light) as f32 };
         let Some(index) = lights.index_of(light) else { return 1.0 };
         match choice {
             Choice::Table(table) => table.expected(draws, table.share(index)),

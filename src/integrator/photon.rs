@@ -9,11 +9,13 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use super::whitted::{SurfaceLight, WhittedTracer};
+use super::direct::{direct_light_against, LightSamples, LightSampling};
+use super::whitted::{Lit, SurfaceLight, WhittedTracer};
 use super::{Context, Integrator, Progress, Rendered, Tuned};
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
 use crate::config::{Estimate, PhotonConfig, RenderConfig};
+use crate::light::Light;
 use crate::photon::guide::GatherGuide;
 use crate::photon::{build_maps, PhotonMap, PhotonMaps};
 use crate::query::{Interaction, RayCount, SceneQuery, SurfacePoint};
@@ -197,6 +199,10 @@ struct MapLight<'a> {
     gather_per_sample: u32,
     /// Whether gather rays follow the global map's guides (where it has them).
     guided: bool,
+    /// Shadow rays per area light at each surface.
+    light_samples: u32,
+    /// Whether the scene has area lights, which gather rays can meet.
+    area_lights: bool,
 }
 
 /// Shadow rays per area light at each camera sample's surfaces unless the
@@ -209,11 +215,7 @@ const LIGHT_SAMPLES: u32 = 1;
 impl<'a> MapLight<'a> {
     /// The recursion that adds this light at every diffuse or glossy surface.
     fn tracer(&'a self, ctx: &'a Context<'a>) -> WhittedTracer<'a> {
-        WhittedTracer {
-            ctx,
-            surface_light: Some(self),
-            light_samples: ctx.config.light_samples_or(LIGHT_SAMPLES),
-        }
+        WhittedTracer { ctx, surface_light: Some(self), light_samples: self.light_samples }
     }
 
     /// The light of `maps` with the settings of `ctx`.
@@ -226,11 +228,36 @@ impl<'a> MapLight<'a> {
             caustic_estimate: photons.caustic_estimate(ctx.diagonal),
             gather_per_sample: photons.gather_rays,
             guided: photons.guided_gathering,
+            light_samples: ctx.config.light_samples_or(LIGHT_SAMPLES),
+            area_lights: ctx.query.scene.lights.iter().any(|light| !light.is_delta()),
         }
     }
 }
 
 impl SurfaceLight for MapLight<'_> {
+    /// On a glossy surface, the area lights' light is shared between the
+    /// shadow rays and the gather rays that meet a light's front (see
+    /// [`GatherPlan::weighs_lights`]); elsewhere the shadow rays hold all of it.
+    fn direct(
+        &self,
+        sp: &SurfacePoint,
+        bsdf: &Bsdf,
+        throughput: Vec3,
+        rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> Option<Vec3> {
+        // (Asked first: the plan looks up a guide.)
+        if !self.area_lights || bsdf.glossy_share() <= 0.0 {
+            return None;
+        }
+        let plan = self.gather_plan(sp, bsdf, throughput)?;
+        if !plan.weighs_lights() {
+            return None;
+        }
+        let other = |wi: Vec3| plan.rays as f32 * plan.pdf(sp, bsdf, wi);
+        Some(direct_light_against(&self.query, sp, bsdf, self.light_samples, &other, rng, count))
+    }
+
     fn at(
         &self,
         sp: &SurfacePoint,
@@ -238,20 +265,21 @@ impl SurfaceLight for MapLight<'_> {
         throughput: Vec3,
         rng: &mut Rng,
         count: &mut RayCount,
-    ) -> (Vec3, Vec3) {
+    ) -> Lit {
         let (m, wo) = (bsdf.material(), bsdf.wo());
         let caustic = match &self.maps.caustic {
             Some(caustic) => caustic.radiance(sp.p, sp.ns, wo, m, &self.caustic_estimate),
             None => Vec3::ZERO,
         };
-        let global = match &self.maps.global {
-            Some(global) if self.maps.for_gathering => {
-                self.final_gather(sp, bsdf, global, throughput, rng, count)
-            }
-            Some(global) => global.radiance(sp.p, sp.ns, wo, m, &self.global_estimate),
-            None => Vec3::ZERO,
+        let (indirect, direct) = match &self.maps.global {
+            Some(global) if self.maps.for_gathering => match self.gather_plan(sp, bsdf, throughput) {
+                Some(plan) => self.final_gather(sp, bsdf, global, &plan, rng, count),
+                None => (Vec3::ZERO, Vec3::ZERO),
+            },
+            Some(global) => (global.radiance(sp.p, sp.ns, wo, m, &self.global_estimate), Vec3::ZERO),
+            None => (Vec3::ZERO, Vec3::ZERO),
         };
-        (caustic, global)
+        Lit { direct, caustic, indirect }
     }
 }
 
@@ -260,30 +288,33 @@ impl MapLight<'_> {
     /// light arriving from the hemisphere, each asking the global map for the
     /// radiance leaving the diffuse surface it meets. Their directions follow
     /// the guide of the nearest irradiance record (where its photons came
-    /// from, half of them; the cosine, the other half) or, unguided, the cosine.
+    /// from, half of them; the cosine, the other half) or, unguided, the
+    /// cosine; on a glossy surface some follow its lobe ([`glossy_or_gathered`]).
     ///
     /// Each camera sample sends its own gather rays (so more samples mean
     /// more gathering, and the estimate keeps converging), scaled by the
     /// weight of the path that got here (`throughput`), at least one: a
     /// surface seen through a 4% glass reflection needs few. Any count gives
     /// an unbiased estimate; fewer only add noise where it is weighted down.
+    ///
+    /// Returns the indirect light, and the share of the area lights' light
+    /// the rays that met a light's front keep (on glossy surfaces only:
+    /// [`GatherPlan::weighs_lights`]), which is direct light.
     fn final_gather(
         &self,
         sp: &SurfacePoint,
         bsdf: &Bsdf,
         global: &PhotonMap,
-        throughput: Vec3,
+        plan: &GatherPlan,
         rng: &mut Rng,
         count: &mut RayCount,
-    ) -> Vec3 {
-        let n = ((self.gather_per_sample as f32 * throughput.max_element().min(1.0)).ceil() as u32).max(1);
-        let guide = self.guided.then(|| global.gather_guide(sp.p, sp.ns, &self.global_estimate)).flatten();
-        let glossy = GLOSSY_SHARE_GATHERED * bsdf.glossy_share();
+    ) -> (Vec3, Vec3) {
+        let GatherPlan { rays: n, guide, glossy, .. } = *plan;
         // The rays go out in batches: every direction of a batch is drawn
         // first, then the batch is traced at once (Embree 3's ray streams),
         // then each hit is shaded in order. Only the order of draws decides
         // the image, never how the intersector takes the batch.
-        let mut sum = Vec3::ZERO;
+        let (mut sum, mut lights) = (Vec3::ZERO, Vec3::ZERO);
         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); GATHER_BATCH];
         let mut weights = [(Vec3::ZERO, 0.0); GATHER_BATCH];
         for start in (0..n).step_by(GATHER_BATCH) {
@@ -291,7 +322,7 @@ impl MapLight<'_> {
             for i in start..(start + GATHER_BATCH as u32).min(n) {
                 let u = stratified(i, n, rng);
                 let (wi, cos_over_pdf) = if glossy > 0.0 {
-                    glossy_or_gathered(sp, bsdf, guide, glossy, u)
+                    glossy_or_gathered(sp, bsdf, plan, u)
                 } else {
                     gathered_direction(sp, guide, u)
                 };
@@ -302,10 +333,18 @@ impl MapLight<'_> {
                 len += 1;
             }
             let mut add = |j: usize, first: Option<Interaction>, count: &mut RayCount| {
-                let incoming = self.gathered(&rays[j], first, global, 0, rng, count);
-                if incoming != Vec3::ZERO {
-                    let (f, cos_over_pdf) = weights[j];
-                    sum += f * incoming * cos_over_pdf;
+                let (f, cos_over_pdf) = weights[j];
+                match first {
+                    Some(Interaction::Emitter { light, t, radiance }) if plan.weighs_lights() => {
+                        let share = self.gather_share(sp, bsdf, plan, &rays[j], light, t);
+                        lights += f * radiance * (share * cos_over_pdf);
+                    }
+                    first => {
+                        let incoming = self.gathered(&rays[j], first, global, 0, rng, count);
+                        if incoming != Vec3::ZERO {
+                            sum += f * incoming * cos_over_pdf;
+                        }
+                    }
                 }
             };
             // The same answers either way; where a batch would be traced ray
@@ -322,14 +361,53 @@ impl MapLight<'_> {
                 }
             }
         }
-        sum / n as f32
+        (sum / n as f32, lights / n as f32)
+    }
+
+    /// How final gathering draws its rays at `sp`, reached along a path of
+    /// weight `throughput`; `None` where it does not gather (no global map
+    /// read by gathering).
+    fn gather_plan(&self, sp: &SurfacePoint, bsdf: &Bsdf, throughput: Vec3) -> Option<GatherPlan<'_>> {
+        let global = self.maps.global.as_ref().filter(|_| self.maps.for_gathering)?;
+        let rays = ((self.gather_per_sample as f32 * throughput.max_element().min(1.0)).ceil() as u32).max(1);
+        let guide = self.guided.then(|| global.gather_guide(sp.p, sp.ns, &self.global_estimate)).flatten();
+        let glossy = GLOSSY_SHARE_GATHERED * bsdf.glossy_share();
+        Some(GatherPlan { rays, guide, glossy, area_lights: self.area_lights })
+    }
+
+    /// The share of an area light's light that a gather ray `ray` from `sp`
+    /// keeps where it meets the light's front at `t`: the balance
+    /// heuristic of the gather rays against the shadow rays, each strategy's
+    /// density times its count (the other share is the shadow rays',
+    /// [`direct_light_against`]).
+    fn gather_share(
+        &self,
+        sp: &SurfacePoint,
+        bsdf: &Bsdf,
+        plan: &GatherPlan,
+        ray: &Ray,
+        light: &Light,
+        t: f32,
+    ) -> f32 {
+        let lights = &self.query.scene.lights;
+        let sampling = LightSampling::Stratified { samples: self.light_samples };
+        let on = ray.origin + t * ray.dir;
+        let p_light =
+            LightSamples::expected_count(lights, light, sp.p, sampling) * light.pdf_solid_angle(on, sp.p);
+        let p_gather = plan.rays as f32 * plan.pdf(sp, bsdf, ray.dir);
+        if p_gather > 0.0 {
+            p_gather / (p_gather + p_light)
+        } else {
+            0.0
+        }
     }
 
     /// Radiance along a gather ray that has bounced diffusely at least once
     /// before, given what it meets `first`: the global map's estimate where it meets a diffuse surface,
     /// through mirrors and glass on the way. Light seen straight from a light
-    /// (or through mirrors and glass only) is not counted: shadow rays and the
-    /// caustic map already hold it.
+    /// (or through mirrors and glass only) is not counted here: shadow rays
+    /// and the caustic map hold it (but for the share [`MapLight::final_gather`]
+    /// keeps on glossy surfaces).
     fn gathered(
         &self,
         ray: &Ray,
@@ -353,6 +431,51 @@ impl MapLight<'_> {
         let next = sp.spawn(s.wi);
         let first = self.query.first(&next, count);
         s.weight * self.gathered(&next, first, global, bounces + 1, rng, count)
+    }
+}
+
+/// How final gathering draws its rays at one surface point.
+#[derive(Clone, Copy)]
+struct GatherPlan<'g> {
+    /// How many.
+    rays: u32,
+    /// The guide they follow, if any (else the cosine).
+    guide: Option<&'g GatherGuide>,
+    /// The chance that a ray follows the glossy lobe instead (0 without one).
+    glossy: f32,
+    /// Whether the scene has area lights.
+    area_lights: bool,
+}
+
+impl GatherPlan<'_> {
+    /// Whether the gather rays that meet an area light's front keep a share
+    /// of its light (weighed against the shadow rays by
+    /// [`MapLight::gather_share`]): on glossy surfaces, where rays follow
+    /// the lobe. A narrow lobe reflects a light that shadow rays alone
+    /// find only where a sample of the light falls in it: the light's
+    /// reflection in a shiny sphere was blotched. Elsewhere (and for point
+    /// and spot lights, which no ray meets) shadow rays keep all of it, as
+    /// before.
+    fn weighs_lights(&self) -> bool {
+        self.area_lights && self.glossy > 0.0
+    }
+
+    /// The solid-angle density of one gather ray at the unit direction `wi`
+    /// (0 below the shading normal's hemisphere).
+    fn pdf(&self, sp: &SurfacePoint, bsdf: &Bsdf, wi: Vec3) -> f32 {
+        let cos = wi.dot(sp.ns);
+        if cos.is_nan() || cos <= 0.0 {
+            return 0.0;
+        }
+        let gathered = match self.guide {
+            Some(guide) => cos / guide.cos_over_pdf(Frame::new(sp.ns).to_local(wi)),
+            None => cos / PI,
+        };
+        if self.glossy > 0.0 {
+            self.glossy * bsdf.glossy_pdf(wi) + (1.0 - self.glossy) * gathered
+        } else {
+            gathered
+        }
     }
 }
 
@@ -386,30 +509,17 @@ const GLOSSY_SHARE_GATHERED: f32 = 0.5;
 /// sphere (Phong exponent 60) such rays were most of the noise.
 /// `u` picks the technique by its first coordinate, rescaled within it,
 /// so stratified points stay stratified in each.
-fn glossy_or_gathered(
-    sp: &SurfacePoint,
-    bsdf: &Bsdf,
-    guide: Option<&GatherGuide>,
-    glossy: f32,
-    u: Vec2,
-) -> (Vec3, f32) {
+fn glossy_or_gathered(sp: &SurfacePoint, bsdf: &Bsdf, plan: &GatherPlan, u: Vec2) -> (Vec3, f32) {
     const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
-    let frame = Frame::new(sp.ns);
+    let glossy = plan.glossy;
     let wi = if u.x < glossy {
         bsdf.sample_glossy(Vec2::new((u.x / glossy).min(BELOW_ONE), u.y))
     } else {
-        gathered_direction(sp, guide, Vec2::new(((u.x - glossy) / (1.0 - glossy)).min(BELOW_ONE), u.y)).0
+        let u = Vec2::new(((u.x - glossy) / (1.0 - glossy)).min(BELOW_ONE), u.y);
+        gathered_direction(sp, plan.guide, u).0
     };
-    let cos = wi.dot(sp.ns);
-    if cos.is_nan() || cos <= 0.0 {
-        return (wi, 0.0);
-    }
-    let gathered_pdf = match guide {
-        Some(guide) => cos / guide.cos_over_pdf(frame.to_local(wi)),
-        None => cos / PI,
-    };
-    let pdf = glossy * bsdf.glossy_pdf(wi) + (1.0 - glossy) * gathered_pdf;
-    (wi, cos / pdf)
+    let pdf = plan.pdf(sp, bsdf, wi);
+    (wi, if pdf > 0.0 { wi.dot(sp.ns) / pdf } else { 0.0 })
 }
 
 #[cfg(test)]
@@ -489,7 +599,8 @@ mod tests {
                     (before_mean - expected).abs() < 0.01 * expected,
                     "{case}: {before_mean} against {expected}"
                 );
-                let now = |u| glossy_or_gathered(&sp, &bsdf, guide, share, u);
+                let plan = GatherPlan { rays: 1, guide, glossy: share, area_lights: false };
+                let now = |u| glossy_or_gathered(&sp, &bsdf, &plan, u);
                 let (mean, variance) = gathered_moments(&bsdf, more, n, now);
                 assert!((mean - expected).abs() < 0.01 * expected, "{case}: {mean} against {expected}");
                 // Under even light the lobe was most of the noise (measured:

@@ -53,7 +53,22 @@ impl Integrator for Whitted {
 /// Light the recursion cannot find by itself, added at every diffuse or
 /// glossy surface it reaches (the photon maps' caustics and indirect light).
 pub trait SurfaceLight: Sync {
-    /// The caustic and the indirect radiance leaving `sp` towards the viewer.
+    /// Direct light at `sp` where this light's own rays also find the
+    /// lights (then it weighs the shadow rays against them); `None`: the
+    /// tracer's shadow rays alone hold it.
+    fn direct(
+        &self,
+        sp: &SurfacePoint,
+        bsdf: &Bsdf,
+        throughput: Vec3,
+        rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> Option<Vec3> {
+        let _ = (sp, bsdf, throughput, rng, count);
+        None
+    }
+
+    /// The radiance leaving `sp` towards the viewer that this light adds.
     /// `throughput` is the weight of the path from the camera.
     fn at(
         &self,
@@ -62,7 +77,20 @@ pub trait SurfaceLight: Sync {
         throughput: Vec3,
         rng: &mut Rng,
         count: &mut RayCount,
-    ) -> (Vec3, Vec3);
+    ) -> Lit;
+}
+
+/// Radiance a [`SurfaceLight`] adds at a surface, by component (as
+/// [`Sample`] has them).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Lit {
+    /// Light from a light that its own rays found (the rest of the direct
+    /// light when it weighs the shadow rays: [`SurfaceLight::direct`]).
+    pub direct: Vec3,
+    /// Light focused by mirrors and glass.
+    pub caustic: Vec3,
+    /// Light that bounced diffusely before.
+    pub indirect: Vec3,
 }
 
 /// The recursion over one scene, with the surface light an integrator adds.
@@ -113,12 +141,18 @@ impl WhittedTracer<'_> {
         let mut out = Sample { depth: sp.t * ray.dir.length(), ..Sample::default() };
         if bsdf.has_smooth() {
             let sampling = LightSampling::Stratified { samples: self.light_samples };
-            out.direct = direct_light(query, &sp, &bsdf, sampling, rng, count);
+            let weighed =
+                self.surface_light.and_then(|extra| extra.direct(&sp, &bsdf, throughput, rng, count));
+            out.direct = match weighed {
+                Some(direct) => direct,
+                None => direct_light(query, &sp, &bsdf, sampling, rng, count),
+            };
             out.indirect = m.diffuse * config.ambient;
             if let Some(extra) = self.surface_light {
-                let (caustic, indirect) = extra.at(&sp, &bsdf, throughput, rng, count);
-                out.caustic = caustic;
-                out.indirect += indirect;
+                let lit = extra.at(&sp, &bsdf, throughput, rng, count);
+                out.direct += lit.direct;
+                out.caustic = lit.caustic;
+                out.indirect += lit.indirect;
             }
             (out.albedo, out.normal) = (m.diffuse + m.specular, sp.ns);
         }
