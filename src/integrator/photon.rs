@@ -10,7 +10,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::direct::{direct_light_against, LightSamples, LightSampling};
-use super::whitted::{Lit, SurfaceLight, WhittedTracer};
+use super::whitted::{Lit, Shading, SurfaceLight, WhittedTracer};
 use super::{Context, Integrator, Progress, Rendered, Tuned};
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
@@ -238,14 +238,8 @@ impl SurfaceLight for MapLight<'_> {
     /// On a glossy surface, the area lights' light is shared between the
     /// shadow rays and the gather rays that meet a light's front (see
     /// [`GatherPlan::weighs_lights`]); elsewhere the shadow rays hold all of it.
-    fn direct(
-        &self,
-        sp: &SurfacePoint,
-        bsdf: &Bsdf,
-        throughput: Vec3,
-        rng: &mut Rng,
-        count: &mut RayCount,
-    ) -> Option<Vec3> {
+    fn direct(&self, here: &Shading, rng: &mut Rng, count: &mut RayCount) -> Option<Vec3> {
+        let Shading { sp, bsdf, throughput } = *here;
         // (Asked first: the plan looks up a guide.)
         if !self.area_lights || bsdf.glossy_share() <= 0.0 {
             return None;
@@ -258,14 +252,8 @@ impl SurfaceLight for MapLight<'_> {
         Some(direct_light_against(&self.query, sp, bsdf, self.light_samples, &other, rng, count))
     }
 
-    fn at(
-        &self,
-        sp: &SurfacePoint,
-        bsdf: &Bsdf,
-        throughput: Vec3,
-        rng: &mut Rng,
-        count: &mut RayCount,
-    ) -> Lit {
+    fn at(&self, here: &Shading, rng: &mut Rng, count: &mut RayCount) -> Lit {
+        let Shading { sp, bsdf, throughput } = *here;
         let (m, wo) = (bsdf.material(), bsdf.wo());
         let caustic = match &self.maps.caustic {
             Some(caustic) => caustic.radiance(sp.p, sp.ns, wo, m, &self.caustic_estimate),

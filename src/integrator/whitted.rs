@@ -53,31 +53,29 @@ impl Integrator for Whitted {
 /// Light the recursion cannot find by itself, added at every diffuse or
 /// glossy surface it reaches (the photon maps' caustics and indirect light).
 pub trait SurfaceLight: Sync {
-    /// Direct light at `sp` where this light's own rays also find the
+    /// Direct light at a surface where this light's own rays also find the
     /// lights (then it weighs the shadow rays against them); `None`: the
     /// tracer's shadow rays alone hold it.
-    fn direct(
-        &self,
-        sp: &SurfacePoint,
-        bsdf: &Bsdf,
-        throughput: Vec3,
-        rng: &mut Rng,
-        count: &mut RayCount,
-    ) -> Option<Vec3> {
-        let _ = (sp, bsdf, throughput, rng, count);
+    fn direct(&self, here: &Shading, rng: &mut Rng, count: &mut RayCount) -> Option<Vec3> {
+        let _ = (here, rng, count);
         None
     }
 
-    /// The radiance leaving `sp` towards the viewer that this light adds.
-    /// `throughput` is the weight of the path from the camera.
-    fn at(
-        &self,
-        sp: &SurfacePoint,
-        bsdf: &Bsdf,
-        throughput: Vec3,
-        rng: &mut Rng,
-        count: &mut RayCount,
-    ) -> Lit;
+    /// The radiance leaving a surface towards the viewer that this light adds.
+    fn at(&self, here: &Shading, rng: &mut Rng, count: &mut RayCount) -> Lit;
+}
+
+/// A surface the recursion shades: the point, its BSDF towards the
+/// viewer, and the weight of the path from the camera (what the caller
+/// multiplies the light there by).
+#[derive(Clone, Copy)]
+pub struct Shading<'s> {
+    /// The surface point.
+    pub sp: &'s SurfacePoint,
+    /// Its material, seen along the arriving ray.
+    pub bsdf: &'s Bsdf<'s>,
+    /// The path's weight.
+    pub throughput: Vec3,
 }
 
 /// Radiance a [`SurfaceLight`] adds at a surface, by component (as
@@ -141,15 +139,15 @@ impl WhittedTracer<'_> {
         let mut out = Sample { depth: sp.t * ray.dir.length(), ..Sample::default() };
         if bsdf.has_smooth() {
             let sampling = LightSampling::Stratified { samples: self.light_samples };
-            let weighed =
-                self.surface_light.and_then(|extra| extra.direct(&sp, &bsdf, throughput, rng, count));
+            let here = Shading { sp: &sp, bsdf: &bsdf, throughput };
+            let weighed = self.surface_light.and_then(|extra| extra.direct(&here, rng, count));
             out.direct = match weighed {
                 Some(direct) => direct,
                 None => direct_light(query, &sp, &bsdf, sampling, rng, count),
             };
             out.indirect = m.diffuse * config.ambient;
             if let Some(extra) = self.surface_light {
-                let lit = extra.at(&sp, &bsdf, throughput, rng, count);
+                let lit = extra.at(&here, rng, count);
                 out.direct += lit.direct;
                 out.caustic = lit.caustic;
                 out.indirect += lit.indirect;
