@@ -112,6 +112,11 @@ impl<'a> Bsdf<'a> {
         self.material.brdf(self.sp.ns, wi, self.wo())
     }
 
+    /// The glossy lobe's part of [`Bsdf::eval`] alone.
+    pub fn eval_glossy(&self, wi: Vec3) -> Vec3 {
+        self.material.glossy_brdf(self.sp.ns, wi, self.wo())
+    }
+
     /// Solid-angle density with which [`Bsdf::sample`] produces `wi` through
     /// its smooth lobes, lobe choice included.
     pub fn pdf(&self, wi: Vec3) -> f32 {

@@ -69,11 +69,16 @@ impl Material {
     pub fn brdf(&self, n: Vec3, wi: Vec3, wo: Vec3) -> Vec3 {
         let mut f = self.diffuse * std::f32::consts::FRAC_1_PI;
         if self.specular.max_element() > 0.0 {
-            let cos_alpha = crate::optics::reflect(-wi, n).dot(wo).max(0.0);
-            let e = self.phong_exponent;
-            f += self.specular * ((e + 2.0) / std::f32::consts::TAU * cos_alpha.powf(e));
+            f += self.glossy_brdf(n, wi, wo);
         }
         f
+    }
+
+    /// The glossy part of [`Material::brdf`] alone.
+    pub fn glossy_brdf(&self, n: Vec3, wi: Vec3, wo: Vec3) -> Vec3 {
+        let cos_alpha = crate::optics::reflect(-wi, n).dot(wo).max(0.0);
+        let e = self.phong_exponent;
+        self.specular * ((e + 2.0) / std::f32::consts::TAU * cos_alpha.powf(e))
     }
 
     /// The sharpest glossy lobe: beyond it, `cos^e` is a mirror in all but

@@ -63,12 +63,12 @@ pub fn direct_light(
 }
 
 /// [`direct_light`] from `samples` stratified shadow rays per area light
-/// where another strategy also finds the area lights' fronts: each
-/// sample is weighted by the balance heuristic against `other(wi)`, the
-/// number of rays that strategy sends from `sp` times their density
-/// towards `wi`, and the other strategy adds the rest (see
-/// [`LightSamples::expected_count`]). Point and spot lights, which no ray
-/// finds, keep their whole light.
+/// where rays that follow the glossy lobe also find the area lights'
+/// fronts: each sample's glossy part is weighted by the balance heuristic
+/// against `other(wi)`, the number of such rays from `sp` times their
+/// density towards `wi`, and those rays add the rest (see
+/// [`LightSamples::expected_count`]). The diffuse part, and point and spot
+/// lights, which no ray finds, keep all their light.
 pub fn direct_light_against(
     query: &SceneQuery,
     sp: &SurfacePoint,
@@ -155,7 +155,13 @@ fn shadow_ray(
                 // Each of this light's samples has its density; `divide_by`
                 // is how many it takes here (or is expected to).
                 let p_light = divide_by * light.pdf_solid_angle(ls.position, sp.p);
-                f * ls.irradiance * (cos / divide_by) * (p_light / (p_light + other(wi)))
+                let p_other = other(wi);
+                let weighed = if p_other > 0.0 {
+                    f - bsdf.eval_glossy(wi) * (p_other / (p_light + p_other))
+                } else {
+                    f
+                };
+                weighed * ls.irradiance * (cos / divide_by)
             }
             _ => f * ls.irradiance * (cos / divide_by),
         },

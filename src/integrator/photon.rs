@@ -235,9 +235,10 @@ impl<'a> MapLight<'a> {
 }
 
 impl SurfaceLight for MapLight<'_> {
-    /// On a glossy surface, the area lights' light is shared between the
-    /// shadow rays and the gather rays that meet a light's front (see
-    /// [`GatherPlan::weighs_lights`]); elsewhere the shadow rays hold all of it.
+    /// On a glossy surface, the light its lobe reflects from area lights is
+    /// shared between the shadow rays and the lobe's gather rays that meet
+    /// a light's front (see [`GatherPlan::weighs_lights`]); elsewhere the
+    /// shadow rays hold all of it.
     fn direct(&self, here: &Shading, rng: &mut Rng, count: &mut RayCount) -> Option<Vec3> {
         let Shading { sp, bsdf, throughput } = *here;
         // (Asked first: the plan looks up a guide.)
@@ -248,7 +249,7 @@ impl SurfaceLight for MapLight<'_> {
         if !plan.weighs_lights() {
             return None;
         }
-        let other = |wi: Vec3| plan.rays as f32 * plan.pdf(sp, bsdf, wi);
+        let other = |wi: Vec3| plan.lobe_density(bsdf, wi);
         Some(direct_light_against(&self.query, sp, bsdf, self.light_samples, &other, rng, count))
     }
 
@@ -304,28 +305,33 @@ impl MapLight<'_> {
         // the image, never how the intersector takes the batch.
         let (mut sum, mut lights) = (Vec3::ZERO, Vec3::ZERO);
         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); GATHER_BATCH];
-        let mut weights = [(Vec3::ZERO, 0.0); GATHER_BATCH];
+        // Each ray's BSDF, `cos / pdf`, and whether it followed the glossy lobe.
+        let mut weights = [(Vec3::ZERO, 0.0, false); GATHER_BATCH];
         for start in (0..n).step_by(GATHER_BATCH) {
             let mut len = 0;
             for i in start..(start + GATHER_BATCH as u32).min(n) {
                 let u = stratified(i, n, rng);
-                let (wi, cos_over_pdf) = if glossy > 0.0 {
+                let (wi, cos_over_pdf, from_lobe) = if glossy > 0.0 {
                     glossy_or_gathered(sp, bsdf, plan, u)
                 } else {
-                    gathered_direction(sp, guide, u)
+                    let (wi, cos_over_pdf) = gathered_direction(sp, guide, u);
+                    (wi, cos_over_pdf, false)
                 };
                 if wi.dot(sp.ng) <= 0.0 || cos_over_pdf <= 0.0 {
                     continue;
                 }
-                (rays[len], weights[len]) = (sp.spawn(wi), (bsdf.eval(wi), cos_over_pdf));
+                (rays[len], weights[len]) = (sp.spawn(wi), (bsdf.eval(wi), cos_over_pdf, from_lobe));
                 len += 1;
             }
             let mut add = |j: usize, first: Option<Interaction>, count: &mut RayCount| {
-                let (f, cos_over_pdf) = weights[j];
+                let (f, cos_over_pdf, from_lobe) = weights[j];
                 match first {
                     Some(Interaction::Emitter { light, t, radiance }) if plan.weighs_lights() => {
-                        let share = self.gather_share(sp, bsdf, plan, &rays[j], light, t);
-                        lights += f * radiance * (share * cos_over_pdf);
+                        if from_lobe {
+                            let glossy = bsdf.eval_glossy(rays[j].dir);
+                            lights +=
+                                glossy * radiance * self.lobe_weight(sp, bsdf, plan, &rays[j], light, t);
+                        }
                     }
                     first => {
                         let incoming = self.gathered(&rays[j], first, global, 0, rng, count);
@@ -363,12 +369,15 @@ impl MapLight<'_> {
         Some(GatherPlan { rays, guide, glossy, area_lights: self.area_lights })
     }
 
-    /// The share of an area light's light that a gather ray `ray` from `sp`
-    /// keeps where it meets the light's front at `t`: the balance
-    /// heuristic of the gather rays against the shadow rays, each strategy's
-    /// density times its count (the other share is the shadow rays',
-    /// [`direct_light_against`]).
-    fn gather_share(
+    /// What a gather ray `ray` from `sp` that followed the glossy lobe
+    /// multiplies the lobe's `f L` by where it meets an area light's front
+    /// at `t`, in place of its `cos / pdf`: the balance heuristic of the
+    /// lobe's rays against the shadow rays, each strategy's count times
+    /// density (the shadow rays' share is [`direct_light_against`]'s), over
+    /// the lobe's chance and density: `n cos / (n_lobe p_lobe + n_light
+    /// p_light)`, for `n` gather rays of which `n_lobe` follow the lobe on
+    /// average.
+    fn lobe_weight(
         &self,
         sp: &SurfacePoint,
         bsdf: &Bsdf,
@@ -382,9 +391,9 @@ impl MapLight<'_> {
         let on = ray.origin + t * ray.dir;
         let p_light =
             LightSamples::expected_count(lights, light, sp.p, sampling) * light.pdf_solid_angle(on, sp.p);
-        let p_gather = plan.rays as f32 * plan.pdf(sp, bsdf, ray.dir);
-        if p_gather > 0.0 {
-            p_gather / (p_gather + p_light)
+        let both = plan.lobe_density(bsdf, ray.dir) + p_light;
+        if both > 0.0 {
+            plan.rays as f32 * ray.dir.dot(sp.ns) / both
         } else {
             0.0
         }
@@ -436,16 +445,27 @@ struct GatherPlan<'g> {
 }
 
 impl GatherPlan<'_> {
-    /// Whether the gather rays that meet an area light's front keep a share
-    /// of its light (weighed against the shadow rays by
-    /// [`MapLight::gather_share`]): on glossy surfaces, where rays follow
-    /// the lobe. A narrow lobe reflects a light that shadow rays alone
-    /// find only where a sample of the light falls in it: the light's
-    /// reflection in a shiny sphere was blotched. Elsewhere (and for point
-    /// and spot lights, which no ray meets) shadow rays keep all of it, as
-    /// before.
+    /// Whether the gather rays that followed the glossy lobe and meet an
+    /// area light's front keep a share of the light the lobe reflects
+    /// (weighed against the shadow rays by [`MapLight::lobe_weight`]): on
+    /// glossy surfaces. A narrow lobe reflects a light that shadow rays
+    /// alone find only where a sample of the light falls in it: the light's
+    /// reflection in a shiny sphere was blotched. Only the lobe's rays, and
+    /// only the lobe's part of the BRDF: where every gather ray shared all
+    /// of the light, a glossy floor under a large panel (exponent 50) went
+    /// from one shadow ray's smooth estimate to the gather rays' rare hits,
+    /// with 2.8 times the noise; the lobe's rays sharing all of it, 1.6
+    /// times; as now, 1.17 times (BENCHMARKS.md). The diffuse part, other
+    /// surfaces, and point and spot lights (which no ray meets) keep the
+    /// shadow rays' whole estimate, as before.
     fn weighs_lights(&self) -> bool {
         self.area_lights && self.glossy > 0.0
+    }
+
+    /// The number of gather rays that follow the glossy lobe (on average)
+    /// times the lobe's solid-angle density at the unit direction `wi`.
+    fn lobe_density(&self, bsdf: &Bsdf, wi: Vec3) -> f32 {
+        self.rays as f32 * self.glossy * bsdf.glossy_pdf(wi)
     }
 
     /// The solid-angle density of one gather ray at the unit direction `wi`
@@ -496,18 +516,20 @@ const GLOSSY_SHARE_GATHERED: f32 = 0.5;
 /// then it weighs `f / pdf` many times the rest: on the teapot's red
 /// sphere (Phong exponent 60) such rays were most of the noise.
 /// `u` picks the technique by its first coordinate, rescaled within it,
-/// so stratified points stay stratified in each.
-fn glossy_or_gathered(sp: &SurfacePoint, bsdf: &Bsdf, plan: &GatherPlan, u: Vec2) -> (Vec3, f32) {
+/// so stratified points stay stratified in each. Also says whether the
+/// direction came from the lobe.
+fn glossy_or_gathered(sp: &SurfacePoint, bsdf: &Bsdf, plan: &GatherPlan, u: Vec2) -> (Vec3, f32, bool) {
     const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
     let glossy = plan.glossy;
-    let wi = if u.x < glossy {
+    let from_lobe = u.x < glossy;
+    let wi = if from_lobe {
         bsdf.sample_glossy(Vec2::new((u.x / glossy).min(BELOW_ONE), u.y))
     } else {
         let u = Vec2::new(((u.x - glossy) / (1.0 - glossy)).min(BELOW_ONE), u.y);
         gathered_direction(sp, plan.guide, u).0
     };
     let pdf = plan.pdf(sp, bsdf, wi);
-    (wi, if pdf > 0.0 { wi.dot(sp.ns) / pdf } else { 0.0 })
+    (wi, if pdf > 0.0 { wi.dot(sp.ns) / pdf } else { 0.0 }, from_lobe)
 }
 
 #[cfg(test)]
@@ -588,7 +610,10 @@ mod tests {
                     "{case}: {before_mean} against {expected}"
                 );
                 let plan = GatherPlan { rays: 1, guide, glossy: share, area_lights: false };
-                let now = |u| glossy_or_gathered(&sp, &bsdf, &plan, u);
+                let now = |u| {
+                    let (wi, cos_over_pdf, _) = glossy_or_gathered(&sp, &bsdf, &plan, u);
+                    (wi, cos_over_pdf)
+                };
                 let (mean, variance) = gathered_moments(&bsdf, more, n, now);
                 assert!((mean - expected).abs() < 0.01 * expected, "{case}: {mean} against {expected}");
                 // Under even light the lobe was most of the noise (measured:
