@@ -2,6 +2,7 @@
 
 use std::io::BufReader;
 use std::path::Path;
+use std::str::SplitWhitespace;
 
 use glam::Vec3;
 
@@ -152,24 +153,24 @@ fn check_mtl(path: &Path, text: &str) -> Result<()> {
 /// first `v` statement with a coordinate that is not finite (`nan`, `inf`,
 /// or beyond `f32`'s range), if any.
 fn first_non_finite_vertex(text: &str) -> Option<(usize, usize)> {
-    let vertices = text.lines().enumerate().filter(|(_, l)| l.split_whitespace().next() == Some("v"));
-    vertices.enumerate().find_map(|(number, (i, line))| {
-        let mut coordinates = line.split_whitespace().skip(1).take(3);
-        let finite = coordinates.all(|w| w.parse::<f32>().is_ok_and(f32::is_finite));
-        (!finite).then_some((i + 1, number + 1))
+    statements(text, "v").enumerate().find_map(|(number, (line, words))| {
+        let finite = words.take(3).all(|w| w.parse::<f32>().is_ok_and(f32::is_finite));
+        (!finite).then_some((line, number + 1))
     })
 }
 
 /// Lines of `f` statements that name fewer than three vertices (tobj drops them).
 fn short_faces(text: &str) -> Vec<usize> {
-    text.lines()
-        .enumerate()
-        .filter(|(_, l)| {
-            let mut words = l.split_whitespace();
-            words.next() == Some("f") && words.count() < 3
-        })
-        .map(|(i, _)| i + 1)
-        .collect()
+    statements(text, "f").filter(|(_, words)| words.clone().count() < 3).map(|(line, _)| line).collect()
+}
+
+/// The file's statements of one `kind` (`v`, `f`, ...): each one's line
+/// (from 1) and the words after the keyword.
+fn statements<'t>(text: &'t str, kind: &'t str) -> impl Iterator<Item = (usize, SplitWhitespace<'t>)> + 't {
+    text.lines().enumerate().filter_map(move |(i, line)| {
+        let mut words = line.split_whitespace();
+        (words.next() == Some(kind)).then_some((i + 1, words))
+    })
 }
 
 /// Maps an MTL material onto ours: `Kd` diffuse, `Ks`/`Ns` glossy lobe,
