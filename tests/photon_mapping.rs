@@ -420,6 +420,13 @@ fn a_render_counts_the_rays_its_photons_trace() {
     assert!(closest >= 16_000 + 3 * 2 * 64, "{closest}");
 }
 
+/// A small image and few photons, for the glossy scenes below (the direct
+/// light they measure needs no more).
+fn small_render_of(name: &str, text: &str) -> Scene {
+    let settings = "[image]\nwidth = 32\nheight = 24\n[photons]\nglobal = 5000\ncaustic = 5000\n";
+    Scene::from_toml(&format!("{settings}{text}"), Path::new(name)).unwrap()
+}
+
 /// A shiny sphere (Phong exponent 3000) under a square area light, and
 /// nothing else: all the light it sends the camera comes straight from the
 /// light, so the photon mapper's direct light is the whole image.
@@ -429,12 +436,6 @@ fn shiny_sphere_under_a_panel() -> Scene {
         eye = [0.0, 1.0, 3.0]
         look_at = [0.0, 0.0, 1.0]
         fov = 30.0
-        [image]
-        width = 32
-        height = 24
-        [photons]
-        global = 5000
-        caustic = 5000
         [materials.shiny]
         diffuse = 0.1
         specular = 0.8
@@ -449,7 +450,7 @@ fn shiny_sphere_under_a_panel() -> Scene {
         radius = 0.6
         material = "shiny"
     "#;
-    Scene::from_toml(text, Path::new("shiny.toml")).unwrap()
+    small_render_of("shiny.toml", text)
 }
 
 /// The direct light (as the `direct` AOV holds it) of `scene` rendered by
@@ -520,12 +521,6 @@ fn a_broad_glossy_lobe_keeps_the_shadow_rays_estimate() {
         [camera]
         eye = [0.0, 3.0, 6.0]
         look_at = [0.0, 0.0, 0.0]
-        [image]
-        width = 32
-        height = 24
-        [photons]
-        global = 5000
-        caustic = 5000
         [materials.floor]
         diffuse = 0.6
         specular = 0.2
@@ -541,7 +536,7 @@ fn a_broad_glossy_lobe_keeps_the_shadow_rays_estimate() {
         v = [0.0, 0.0, -20.0]
         material = "floor"
     "#;
-    let scene = Scene::from_toml(text, Path::new("floor.toml")).unwrap();
+    let scene = small_render_of("floor.toml", text);
     let accel = accel(&scene);
     let render = |integrator: &str, seed: u64| direct_light(&scene, accel.as_ref(), integrator, 16, seed);
     let photon_noise = difference(&render("photon", 3), &render("photon", 4));
