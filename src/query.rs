@@ -38,11 +38,12 @@ impl std::iter::Sum for RayCount {
     }
 }
 
-/// What a ray meets first.
+/// What a ray meets first: a surface, worked out as a [`SurfacePoint`] (or,
+/// from [`SceneQuery::first_meeting`], left as the intersector's [`Hit`]).
 #[derive(Debug, Clone, Copy)]
-pub enum Interaction<'a> {
+pub enum Interaction<'a, S = SurfacePoint> {
     /// A surface of the scene's geometry.
-    Surface(SurfacePoint),
+    Surface(S),
     /// The emitting front of an area light (lights are not in the
     /// intersector's geometry: they are tested against the ray's segment up
     /// to the nearest surface; a light's back ends a ray with nothing).
@@ -74,14 +75,53 @@ impl<'a> SceneQuery<'a> {
     /// The first surface or area-light front along `ray`; `None` if it
     /// leaves the scene. Counts one ray.
     pub fn first(&self, ray: &Ray, count: &mut RayCount) -> Option<Interaction<'a>> {
+        self.first_meeting(ray, count).map(|met| self.worked_out(ray, met))
+    }
+
+    /// [`SceneQuery::first`] with a surface left as the intersector's hit,
+    /// for callers that need less than its whole [`SurfacePoint`] (final
+    /// gathering's rays read a record from the triangle and its barycentrics).
+    /// Counts one ray.
+    pub fn first_meeting(&self, ray: &Ray, count: &mut RayCount) -> Option<Interaction<'a, Hit>> {
         count.closest += 1;
-        self.interaction(ray, self.accel.intersect(ray))
+        self.meeting(ray, self.accel.intersect(ray))
+    }
+
+    /// The surface point of a surface `ray` met (as [`SceneQuery::first`] gives it).
+    pub fn worked_out(&self, ray: &Ray, met: Interaction<'a, Hit>) -> Interaction<'a> {
+        match met {
+            Interaction::Surface(hit) => Interaction::Surface(SurfacePoint::new(self.scene, ray, &hit)),
+            Interaction::Emitter { light, t, radiance } => Interaction::Emitter { light, t, radiance },
+        }
     }
 
     /// [`SceneQuery::first`] for every ray of `rays` at once, into `first`
     /// (as many): the intersector may trace them together (Embree 3's ray
     /// streams). The answers are those `first` gives. Counts one ray each.
     pub fn first_batch(&self, rays: &[Ray], first: &mut [Option<Interaction<'a>>], count: &mut RayCount) {
+        self.batch(rays, first, count, |ray, met| self.worked_out(ray, met));
+    }
+
+    /// [`SceneQuery::first_meeting`] for every ray of `rays` at once, as
+    /// [`SceneQuery::first_batch`] takes them.
+    pub fn first_meeting_batch(
+        &self,
+        rays: &[Ray],
+        first: &mut [Option<Interaction<'a, Hit>>],
+        count: &mut RayCount,
+    ) {
+        self.batch(rays, first, count, |_, met| met);
+    }
+
+    /// The rays of `rays` traced together in chunks, each meeting turned
+    /// into an answer by `answer`.
+    fn batch<A>(
+        &self,
+        rays: &[Ray],
+        first: &mut [Option<A>],
+        count: &mut RayCount,
+        answer: impl Fn(&Ray, Interaction<'a, Hit>) -> A,
+    ) {
         assert_eq!(rays.len(), first.len(), "one answer per ray");
         count.closest += rays.len() as u64;
         const CHUNK: usize = 16;
@@ -90,7 +130,7 @@ impl<'a> SceneQuery<'a> {
             let hits = &mut hits[..rays.len()];
             self.accel.intersect_batch(rays, hits);
             for ((ray, hit), out) in rays.iter().zip(hits.iter()).zip(first) {
-                *out = self.interaction(ray, *hit);
+                *out = self.meeting(ray, *hit).map(|met| answer(ray, met));
             }
         }
     }
@@ -104,7 +144,7 @@ impl<'a> SceneQuery<'a> {
     /// through a ceiling light into the room while light paths going up end
     /// at its front: the path tracer and the light tracer would disagree on
     /// the ceiling above the light (BENCHMARKS.md, issue 16).
-    fn interaction(&self, ray: &Ray, hit: Option<Hit>) -> Option<Interaction<'a>> {
+    fn meeting(&self, ray: &Ray, hit: Option<Hit>) -> Option<Interaction<'a, Hit>> {
         let nearest = Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..*ray };
         match self.scene.lights.nearest_crossing(&nearest) {
             Some((light, t, Side::Front)) => {
@@ -113,7 +153,7 @@ impl<'a> SceneQuery<'a> {
             Some((_, _, Side::Back)) => return None,
             None => {}
         }
-        hit.map(|hit| Interaction::Surface(SurfacePoint::new(self.scene, ray, &hit)))
+        hit.map(Interaction::Surface)
     }
 
     /// The first triangle along `ray`, seeing through lights (geometry

@@ -127,6 +127,8 @@ pub(crate) struct Precomputed {
     /// the last (flattening them copied 75 MB at 1M photons, serially).
     guides: Vec<Vec<Option<GatherGuide>>>,
     block: usize,
+    /// The records' median gathering radius (`None` if none is finite and positive).
+    radius: Option<f32>,
 }
 
 /// The edge of the cells that answer final gathering's record lookups, in
@@ -142,6 +144,11 @@ fn median_radius(values: &[(Vec3, Vec3, f32)]) -> Option<f32> {
     let mid = radii2.len() / 2;
     (!radii2.is_empty()).then(|| radii2.select_nth_unstable_by(mid, f32::total_cmp).1.sqrt())
 }
+
+/// One of a map's precomputed irradiance records, as
+/// [`PhotonMap::covering_record`] finds it (valid for that map only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RecordId(pub u32);
 
 /// Irradiance estimated ahead at one photon's position.
 #[derive(Debug, Clone, PartialEq)]
@@ -186,10 +193,11 @@ impl Precomputed {
         let values: Vec<_> = parts.iter().flat_map(|part| part.1.iter().copied()).collect();
         let guides = parts.into_iter().map(|part| part.2).collect();
         let mut tree = PointTree::new(&positions, &values);
-        if let Some(radius) = median_radius(&values) {
+        let radius = median_radius(&values);
+        if let Some(radius) = radius {
             tree.list_cells(CELL_PER_RADIUS * radius);
         }
-        Precomputed { tree, guides, block }
+        Precomputed { tree, guides, block, radius }
     }
 
     /// The gather guide of record `index` (in the order given), if it has one.
@@ -314,13 +322,44 @@ impl PhotonMap {
     /// back to a full estimate when none does, so that light gathered over a
     /// tiny disc (the spot of a narrow beam) is never spread beyond it.
     pub fn precomputed_radiance(&self, p: Vec3, n: Vec3, material: &Material, estimate: &Estimate) -> Vec3 {
-        let Some(pre) = &self.precomputed else {
+        if self.precomputed.is_none() {
             return self.radiance(p, n, n, material, estimate);
-        };
-        if let Some(found) = pre.covering(p, n, estimate.max_radius) {
-            return material.diffuse * std::f32::consts::FRAC_1_PI * pre.tree.value(&found).1;
         }
-        self.radiance(p, n, n, &Material { diffuse: material.diffuse, ..Material::default() }, estimate)
+        match self.covering_record(p, n, estimate) {
+            Some(record) => self.record_radiance(record, material),
+            None => self.radiance(
+                p,
+                n,
+                n,
+                &Material { diffuse: material.diffuse, ..Material::default() },
+                estimate,
+            ),
+        }
+    }
+
+    /// The precomputed record [`PhotonMap::precomputed_radiance`] reads at
+    /// `p` (normal `n`), if there is one (`None` also without records).
+    pub fn covering_record(&self, p: Vec3, n: Vec3, estimate: &Estimate) -> Option<RecordId> {
+        let pre = self.precomputed.as_ref()?;
+        pre.covering(p, n, estimate.max_radius).map(|found| RecordId(found.slot))
+    }
+
+    /// Radiance leaving a surface by the diffuse part of `material` where
+    /// it reads `record` of this map: `diffuse / pi * E`.
+    pub fn record_radiance(&self, record: RecordId, material: &Material) -> Vec3 {
+        material.diffuse * std::f32::consts::FRAC_1_PI * self.record_irradiance(record)
+    }
+
+    /// The irradiance `E` of `record` of this map.
+    pub fn record_irradiance(&self, record: RecordId) -> Vec3 {
+        let pre = self.precomputed.as_ref().expect("a record of this map");
+        pre.tree.value_in(record.0).1
+    }
+
+    /// The median radius of the precomputed records' gathering discs (about
+    /// one and a half times their spacing), if the map has any.
+    pub fn record_radius(&self) -> Option<f32> {
+        self.precomputed.as_ref().and_then(|pre| pre.radius)
     }
 
     /// The gather guide of the precomputed record that [`PhotonMap::precomputed_radiance`]

@@ -39,7 +39,7 @@ use crate::config::PhotonConfig;
 use crate::query::{Interaction, RayCount, SceneQuery, SurfacePoint};
 use crate::sampling::{around, uniform_cone, Rng, SamplerKind, Sobol4};
 use crate::scene::Scene;
-pub use map::{Estimate, Photon, PhotonMap};
+pub use map::{Estimate, Photon, PhotonMap, RecordId};
 
 /// What was built, skipped and how long it took.
 #[derive(Debug, Clone, Default)]

@@ -158,6 +158,11 @@ impl<T: Copy> PointTree<T> {
         &self.values[found.slot as usize]
     }
 
+    /// The value of the point in `slot` (as [`Found::slot`] gives it).
+    pub fn value_in(&self, slot: u32) -> &T {
+        &self.values[slot as usize]
+    }
+
     /// The number of points.
     pub fn len(&self) -> usize {
         self.points.len()
