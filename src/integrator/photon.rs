@@ -4,14 +4,16 @@
 //! read by final gathering (or shown directly when there are no gather rays).
 
 mod gather_count;
+mod record_texels;
 
-use std::f32::consts::PI;
+use std::f32::consts::{FRAC_1_PI, PI};
 
 use glam::{Vec2, Vec3};
 
 use super::direct::{direct_light_against, LightSamples, LightSampling};
 use super::whitted::{Lit, Shading, SurfaceLight, WhittedTracer};
 use super::{Context, Integrator, Progress, Rendered, Tuned};
+use crate::accel::Hit;
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
 use crate::config::{Estimate, PhotonConfig, RenderConfig};
@@ -20,6 +22,7 @@ use crate::photon::guide::GatherGuide;
 use crate::photon::{build_maps, PhotonMap, PhotonMaps};
 use crate::query::{Interaction, RayCount, SceneQuery, SurfacePoint};
 use crate::sampling::{around, cosine_hemisphere, stratified, Frame, Rng};
+use record_texels::{RecordTexels, SideHit};
 
 /// The photon-mapping integrator.
 pub struct PhotonMapping;
@@ -137,7 +140,9 @@ impl Integrator for PhotonMapping {
         if !maps.for_gathering || maps.global.is_none() || budget < PILOT_FROM_SECONDS {
             return None;
         }
-        let (gather_rays, note, rays) = gather_count::choose(ctx, &MapLight::new(ctx, maps), budget);
+        let texels = RecordTexels::for_maps(ctx, maps);
+        let (gather_rays, note, rays) =
+            gather_count::choose(ctx, &MapLight::new(ctx, maps, texels.as_ref()), budget);
         let mut config = ctx.config.clone();
         config.photons.gather_rays = gather_rays;
         Some(Tuned { config, note, rays })
@@ -152,7 +157,8 @@ impl Integrator for PhotonMapping {
                 &traced
             }
         };
-        let light = MapLight::new(ctx, maps);
+        let texels = RecordTexels::for_maps(ctx, maps);
+        let light = MapLight::new(ctx, maps, texels.as_ref());
         let tracer = light.tracer(ctx);
         let s = &maps.stats;
         let mut notes = vec![if s.loaded {
@@ -175,6 +181,13 @@ impl Integrator for PhotonMapping {
         }
         rendered
     }
+}
+
+/// The maps of `ctx`'s settings for its scene, traced with seed 0 (for tests).
+#[cfg(test)]
+fn maps_for_tests(ctx: &Context) -> PhotonMaps {
+    let config = ctx.config;
+    build_maps(&ctx.query, &config.photons, config.max_depth, 0, config.sampler, ctx.diagonal)
 }
 
 /// The shortest budget for which photon mapping chooses its gather rays by
@@ -203,6 +216,8 @@ struct MapLight<'a> {
     light_samples: u32,
     /// Whether the scene has area lights, which gather rays can meet.
     area_lights: bool,
+    /// The records the gather rays' hits read, by triangle and barycentrics.
+    texels: Option<&'a RecordTexels>,
 }
 
 /// Shadow rays per area light at each camera sample's surfaces unless the
@@ -218,8 +233,9 @@ impl<'a> MapLight<'a> {
         WhittedTracer { ctx, surface_light: Some(self), light_samples: self.light_samples }
     }
 
-    /// The light of `maps` with the settings of `ctx`.
-    fn new(ctx: &Context<'a>, maps: &'a PhotonMaps) -> Self {
+    /// The light of `maps` with the settings of `ctx`, gather rays reading
+    /// their records through `texels` (made for the same maps).
+    fn new(ctx: &Context<'a>, maps: &'a PhotonMaps, texels: Option<&'a RecordTexels>) -> Self {
         let photons = &ctx.config.photons;
         MapLight {
             query: ctx.query,
@@ -230,6 +246,7 @@ impl<'a> MapLight<'a> {
             guided: photons.guided_gathering,
             light_samples: ctx.config.light_samples_or(LIGHT_SAMPLES),
             area_lights: ctx.query.scene.lights.iter().any(|light| !light.is_delta()),
+            texels,
         }
     }
 }
@@ -323,36 +340,52 @@ impl MapLight<'_> {
                 (rays[len], weights[len]) = (sp.spawn(wi), (bsdf.eval(wi), cos_over_pdf, from_lobe));
                 len += 1;
             }
-            let mut add = |j: usize, first: Option<Interaction>, count: &mut RayCount| {
-                let (f, cos_over_pdf, from_lobe) = weights[j];
-                match first {
-                    Some(Interaction::Emitter { light, t, radiance }) if plan.weighs_lights() => {
-                        if from_lobe {
-                            let glossy = bsdf.eval_glossy(rays[j].dir);
-                            lights +=
-                                glossy * radiance * self.lobe_weight(sp, bsdf, plan, &rays[j], light, t);
+            let mut add =
+                |j: usize, first: Option<Interaction<Hit>>, read: Option<Vec3>, count: &mut RayCount| {
+                    let (f, cos_over_pdf, from_lobe) = weights[j];
+                    match first {
+                        Some(Interaction::Emitter { light, t, radiance }) if plan.weighs_lights() => {
+                            if from_lobe {
+                                let glossy = bsdf.eval_glossy(rays[j].dir);
+                                lights +=
+                                    glossy * radiance * self.lobe_weight(sp, bsdf, plan, &rays[j], light, t);
+                            }
+                        }
+                        first => {
+                            let incoming = self.gathered(&rays[j], first, read, global, rng, count);
+                            if incoming != Vec3::ZERO {
+                                sum += f * incoming * cos_over_pdf;
+                            }
                         }
                     }
-                    first => {
-                        let incoming = self.gathered(&rays[j], first, global, 0, rng, count);
-                        if incoming != Vec3::ZERO {
-                            sum += f * incoming * cos_over_pdf;
-                        }
-                    }
-                }
-            };
-            // The same answers either way; where a batch would be traced ray
-            // by ray anyway, no array of answers is filled first.
+                };
+            // The same answers either way.
+            let mut first = [None; GATHER_BATCH];
             if self.query.accel.batches_pay(len) {
-                let mut first = [None; GATHER_BATCH];
-                self.query.first_batch(&rays[..len], &mut first[..len], count);
-                for (j, &first) in first[..len].iter().enumerate() {
-                    add(j, first, count);
-                }
+                self.query.first_meeting_batch(&rays[..len], &mut first[..len], count);
             } else {
-                for (j, ray) in rays[..len].iter().enumerate() {
-                    add(j, self.query.first(ray, count), count);
+                for (ray, first) in rays[..len].iter().zip(&mut first) {
+                    *first = self.query.first_meeting(ray, count);
                 }
+            }
+            // The irradiance the hits read, all of the batch's patches read
+            // from memory together.
+            let mut read = [None; GATHER_BATCH];
+            if let Some(texels) = self.texels {
+                let mut sides = [None; GATHER_BATCH];
+                for ((ray, first), side) in rays.iter().zip(first).zip(&mut sides).take(len) {
+                    *side = self.record_side(ray, first);
+                }
+                texels.irradiance_of_all(
+                    self.query.scene,
+                    global,
+                    &self.global_estimate,
+                    &sides[..len],
+                    &mut read[..len],
+                );
+            }
+            for j in 0..len {
+                add(j, first[j], read[j], count);
             }
         }
         (sum / n as f32, lights / n as f32)
@@ -400,34 +433,63 @@ impl MapLight<'_> {
     }
 
     /// Radiance along a gather ray that has bounced diffusely at least once
-    /// before, given what it meets `first`: the global map's estimate where it meets a diffuse surface,
-    /// through mirrors and glass on the way. Light seen straight from a light
-    /// (or through mirrors and glass only) is not counted here: shadow rays
-    /// and the caustic map hold it (but for the share [`MapLight::final_gather`]
-    /// keeps on glossy surfaces).
+    /// before, given what it meets `first`: the global map's estimate where
+    /// it meets a diffuse surface, through up to 8 mirrors and glass on the
+    /// way. Light seen straight from a light (or through mirrors and glass
+    /// only) is not counted here: shadow rays and the caustic map hold it
+    /// (but for the share [`MapLight::final_gather`] keeps on glossy surfaces).
+    ///
+    /// `read`: the irradiance the first hit reads from its patch, where
+    /// already read ([`RecordTexels`]).
     fn gathered(
         &self,
         ray: &Ray,
-        first: Option<Interaction>,
+        first: Option<Interaction<Hit>>,
+        read: Option<Vec3>,
         global: &PhotonMap,
-        bounces: u32,
         rng: &mut Rng,
         count: &mut RayCount,
     ) -> Vec3 {
-        // The light's front is black here: its light is the shadow rays' part.
-        let Some(Interaction::Surface(sp)) = first else { return Vec3::ZERO };
-        let m = self.query.material(&sp);
-        if m.is_glossy_or_diffuse() {
-            return global.precomputed_radiance(sp.p, sp.ns, m, &self.global_estimate);
+        let scene = self.query.scene;
+        let (mut ray, mut first, mut read, mut weight) = (*ray, first, read, Vec3::ONE);
+        for bounces in 0.. {
+            // The light's front is black here: its light is the shadow rays' part.
+            let Some(Interaction::Surface(hit)) = first else { return Vec3::ZERO };
+            let m = &scene.materials[scene.meshes[hit.geom_id as usize].material];
+            if m.is_glossy_or_diffuse() {
+                // Most hits read their record from the triangle's patch,
+                // without working out the point.
+                let texel = read.or_else(|| {
+                    let side = self.record_side(&ray, first)?;
+                    self.texels?.irradiance(scene, global, &self.global_estimate, side)
+                });
+                if let Some(e) = texel {
+                    return weight * m.diffuse * FRAC_1_PI * e;
+                }
+                let sp = SurfacePoint::new(scene, &ray, &hit);
+                return weight * global.precomputed_radiance(sp.p, sp.ns, m, &self.global_estimate);
+            }
+            if bounces >= 8 {
+                break;
+            }
+            let sp = SurfacePoint::new(scene, &ray, &hit);
+            let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
+            let Some(s) = bsdf.sample_specular(rng) else { return Vec3::ZERO };
+            weight *= s.weight;
+            ray = sp.spawn(s.wi);
+            (first, read) = (self.query.first_meeting(&ray, count), None);
         }
-        if bounces >= 8 {
-            return Vec3::ZERO;
-        }
-        let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
-        let Some(s) = bsdf.sample_specular(rng) else { return Vec3::ZERO };
-        let next = sp.spawn(s.wi);
-        let first = self.query.first(&next, count);
-        s.weight * self.gathered(&next, first, global, bounces + 1, rng, count)
+        Vec3::ZERO
+    }
+
+    /// The hit of a gather ray `ray` that reads a record (on a diffuse or
+    /// glossy surface), and its side: the front where the ray comes against
+    /// the face's normal, as in `SurfacePoint`.
+    fn record_side(&self, ray: &Ray, first: Option<Interaction<Hit>>) -> Option<SideHit> {
+        let Some(Interaction::Surface(hit)) = first else { return None };
+        let scene = self.query.scene;
+        let m = &scene.materials[scene.meshes[hit.geom_id as usize].material];
+        m.is_glossy_or_diffuse().then(|| SideHit { hit, front: hit.ng.dot(ray.dir) < 0.0 })
     }
 }
 

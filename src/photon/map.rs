@@ -356,6 +356,11 @@ impl PhotonMap {
         pre.tree.value_in(record.0).1
     }
 
+    /// The number of precomputed records (0 without).
+    pub fn record_count(&self) -> usize {
+        self.precomputed.as_ref().map_or(0, |pre| pre.tree.len())
+    }
+
     /// The median radius of the precomputed records' gathering discs (about
     /// one and a half times their spacing), if the map has any.
     pub fn record_radius(&self) -> Option<f32> {

@@ -268,16 +268,10 @@ mod tests {
             crate::RenderConfig { width: 24, height: 16, time: Some(2.0), ..scene.config.clone() };
         config.photons.global_photons = 2_000;
         let ctx = Context::new(&scene, accel.as_ref(), &config);
-        let maps = crate::photon::build_maps(
-            &ctx.query,
-            &config.photons,
-            config.max_depth,
-            0,
-            config.sampler,
-            ctx.diagonal,
-        );
+        let maps = super::super::maps_for_tests(&ctx);
         let ctx = Context { photon_maps: Some(&maps), ..ctx };
-        let (_, _, rays) = choose(&ctx, &MapLight::new(&ctx, &maps), 2.0);
+        let texels = super::super::RecordTexels::for_maps(&ctx, &maps);
+        let (_, _, rays) = choose(&ctx, &MapLight::new(&ctx, &maps, texels.as_ref()), 2.0);
         let seed = config.seed.wrapping_add(PILOT_SEED);
         let seen = pilot_pixels(&ctx, LIGHT_PILOT_PIXELS, seed).len() as u64;
         let tried = pilot_pixels(&ctx, pilot_pixels_for(2.0), seed).len() as u64;
