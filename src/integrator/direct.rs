@@ -59,14 +59,14 @@ pub fn direct_light(
     rng: &mut Rng,
     count: &mut RayCount,
 ) -> Vec3 {
-    sampled_light(query, sp, bsdf, sampling, None, rng, count)
+    sampled_light(query, sp, bsdf, sampling, Against::Nothing, rng, count)
 }
 
 /// [`direct_light`] from `samples` stratified shadow rays per area light
 /// where rays that follow the glossy lobe also find the area lights'
 /// fronts: each sample's glossy part is weighted by the balance heuristic
-/// against `other(wi)`, the number of such rays from `sp` times their
-/// density towards `wi`, and those rays add the rest (see
+/// against `other(wi)` (see [`Against`]), the number of such rays from
+/// `sp` times their density towards `wi`, and those rays add the rest (see
 /// [`LightSamples::expected_count`]). The diffuse part, and point and spot
 /// lights, which no ray finds, keep all their light.
 pub fn direct_light_against(
@@ -74,20 +74,34 @@ pub fn direct_light_against(
     sp: &SurfacePoint,
     bsdf: &Bsdf,
     samples: u32,
-    other: &dyn Fn(Vec3) -> f32,
+    against: Against,
     rng: &mut Rng,
     count: &mut RayCount,
 ) -> Vec3 {
-    sampled_light(query, sp, bsdf, LightSampling::Stratified { samples }, Some(other), rng, count)
+    sampled_light(query, sp, bsdf, LightSampling::Stratified { samples }, against, rng, count)
 }
 
-/// [`direct_light`], and where `against` is given, [`direct_light_against`].
+/// What a light sample's contribution is weighed against.
+#[derive(Clone, Copy)]
+pub enum Against<'a> {
+    /// Nothing: [`direct_light`].
+    Nothing,
+    /// Rays that follow the glossy lobe, with `other(wi)` their count
+    /// times density: the glossy part is shared with them.
+    Lobe(&'a dyn Fn(Vec3) -> f32),
+    /// The same, and the glossy part alone is wanted: the light the lobe
+    /// reflects, where the diffuse part is had otherwise (final gathering's
+    /// records at a glossy surface a gather ray meets).
+    LobeOnly(&'a dyn Fn(Vec3) -> f32),
+}
+
+/// [`direct_light`], or [`direct_light_against`] as `against` says.
 fn sampled_light(
     query: &SceneQuery,
     sp: &SurfacePoint,
     bsdf: &Bsdf,
     sampling: LightSampling,
-    against: Option<&dyn Fn(Vec3) -> f32>,
+    against: Against,
     rng: &mut Rng,
     count: &mut RayCount,
 ) -> Vec3 {
@@ -125,15 +139,15 @@ fn sampled_light(
 /// samples the light takes at this point, or is expected to); under
 /// multiple importance sampling, `expected` is that expected count, which
 /// multiplies the light's density against the BSDF's; `against`, another
-/// strategy's count times density (see [`direct_light_against`]). `None`
-/// where the sample cannot add anything.
+/// strategy's count times density (see [`Against`]). `None` where the
+/// sample cannot add anything.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn shadow_ray(
     sp: &SurfacePoint,
     bsdf: &Bsdf,
     sampling: LightSampling,
-    against: Option<&dyn Fn(Vec3) -> f32>,
+    against: Against,
     light: &Light,
     u: Vec2,
     divide_by: f32,
@@ -145,13 +159,24 @@ fn shadow_ray(
     if cos <= 0.0 || wi.dot(sp.ng) <= 0.0 || ls.irradiance == Vec3::ZERO {
         return None;
     }
-    let f = bsdf.eval(wi);
+    let f = match against {
+        Against::LobeOnly(_) => bsdf.eval_glossy(wi),
+        _ => bsdf.eval(wi),
+    };
     if f == Vec3::ZERO {
         return None;
     }
     let contribution = match sampling {
         LightSampling::Stratified { .. } => match against {
-            Some(other) if !light.is_delta() => {
+            Against::LobeOnly(other) if !light.is_delta() => {
+                let p_light = divide_by * light.pdf_solid_angle(ls.position, sp.p);
+                let p_other = other(wi);
+                // (Written so that an infinite density, a light seen edge
+                // on, gives all or nothing rather than NaN.)
+                let share = if p_other > 0.0 { 1.0 / (1.0 + p_other / p_light) } else { 1.0 };
+                f * ls.irradiance * (cos / divide_by) * share
+            }
+            Against::Lobe(other) if !light.is_delta() => {
                 // Each of this light's samples has its density; `divide_by`
                 // is how many it takes here (or is expected to).
                 let p_light = divide_by * light.pdf_solid_angle(ls.position, sp.p);
