@@ -68,7 +68,8 @@ pub fn direct_light(
 /// against `other(wi)` (see [`Against`]), the number of such rays from
 /// `sp` times their density towards `wi`, and those rays add the rest (see
 /// [`LightSamples::expected_count`]). The diffuse part, and point and spot
-/// lights, which no ray finds, keep all their light.
+/// lights, which no ray finds, keep all their light (with
+/// [`Against::LobeOnly`], the glossy part is all there is).
 pub fn direct_light_against(
     query: &SceneQuery,
     sp: &SurfacePoint,

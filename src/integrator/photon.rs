@@ -420,12 +420,7 @@ impl MapLight<'_> {
         light: &Light,
         t: f32,
     ) -> f32 {
-        let lights = &self.query.scene.lights;
-        let sampling = LightSampling::Stratified { samples: self.light_samples };
-        let on = ray.origin + t * ray.dir;
-        let p_light =
-            LightSamples::expected_count(lights, light, sp.p, sampling) * light.pdf_solid_angle(on, sp.p);
-        let both = plan.lobe_density(bsdf, ray.dir) + p_light;
+        let both = plan.lobe_density(bsdf, ray.dir) + self.shadow_ray_density(light, sp.p, ray.at(t));
         if both > 0.0 {
             plan.rays as f32 * ray.dir.dot(sp.ns) / both
         } else {
@@ -545,14 +540,19 @@ impl MapLight<'_> {
             LightsSeen::Not => 0.0,
             LightsSeen::Whole => 1.0,
             LightsSeen::Shared { from, pdf } => {
-                let sampling = LightSampling::Stratified { samples: self.light_samples };
-                let lights = &self.query.scene.lights;
-                let p_light = LightSamples::expected_count(lights, light, from, sampling)
-                    * light.pdf_solid_angle(ray.at(t), from);
                 // (An infinite density, at a light seen edge on: no share.)
-                1.0 / (1.0 + p_light / pdf)
+                1.0 / (1.0 + self.shadow_ray_density(light, from, ray.at(t)) / pdf)
             }
         }
+    }
+
+    /// The number of shadow rays a surface at `from` sends to `light`
+    /// ([`LightSamples::expected_count`]) times their density towards the
+    /// point `on` of it: the shadow rays' side of the balance heuristic.
+    fn shadow_ray_density(&self, light: &Light, from: Vec3, on: Vec3) -> f32 {
+        let sampling = LightSampling::Stratified { samples: self.light_samples };
+        LightSamples::expected_count(&self.query.scene.lights, light, from, sampling)
+            * light.pdf_solid_angle(on, from)
     }
 
     /// The hit of a gather ray `ray` that reads a record (on a diffuse or
