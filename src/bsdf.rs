@@ -13,7 +13,6 @@ use std::f32::consts::FRAC_1_PI;
 use glam::{Vec2, Vec3};
 
 use crate::material::Material;
-use crate::optics;
 use crate::query::SurfacePoint;
 use crate::sampling::{around, cosine_hemisphere, phong_lobe, phong_lobe_pdf, Rng};
 
@@ -152,9 +151,14 @@ impl<'a> Bsdf<'a> {
         around(self.sp.reflect(self.dir), phong_lobe(u, self.material.phong_exponent))
     }
 
-    /// The solid-angle density of [`Bsdf::sample_glossy`] at `wi`.
+    /// The solid-angle density of [`Bsdf::sample_glossy`] at `wi`: about
+    /// the same axis it draws about ([`SurfacePoint::reflect`]: the mirror
+    /// direction about the geometric normal where the shading normal's
+    /// points below the surface). About the shading normal's there, a drawn
+    /// direction's density could fall below the normal floats: an infinite
+    /// weight, and the lobe's estimate off where light grazes a smooth mesh.
     pub fn glossy_pdf(&self, wi: Vec3) -> f32 {
-        phong_lobe_pdf(optics::reflect(self.dir, self.sp.ns).dot(wi), self.material.phong_exponent)
+        phong_lobe_pdf(self.sp.reflect(self.dir).dot(wi), self.material.phong_exponent)
     }
 
     /// The density the other way round: with which [`Bsdf::sample`], for
@@ -284,6 +288,40 @@ pub(crate) mod tests {
         let mesh = &scene.meshes[0];
         let hit = Hit { t: 1.0, u: 0.3, v: 0.3, geom_id: 0, prim_id: 0, ng: mesh.face_normal(0) };
         SurfacePoint::new(&scene, &ray, &hit)
+    }
+
+    /// `glossy_pdf` is the density `sample_glossy` draws with, also where
+    /// the smooth normal's mirror direction points below the surface (it
+    /// then draws about the geometric normal's): over a density `p`'s draws,
+    /// the mean of `h / p` is the integral of `h`, here a Phong density of
+    /// half the exponent about that axis (its integral 1; `h^2 / p` is
+    /// bounded, so the mean settles).
+    #[test]
+    fn the_glossy_density_is_that_of_the_glossy_draws_at_grazing_light() {
+        let m = Material {
+            diffuse: Vec3::splat(0.2),
+            specular: Vec3::splat(0.5),
+            phong_exponent: 20.0,
+            ..Material::default()
+        };
+        let mut sp = point();
+        sp.ns = Vec3::new(0.3, 1.0, 0.0).normalize();
+        let dir = Vec3::new(1.0, -0.6, 0.0).normalize();
+        assert!(
+            crate::optics::reflect(dir, sp.ns).dot(sp.ng) < 0.0,
+            "the smooth normal's mirror direction is below"
+        );
+        let axis = sp.reflect(dir);
+        let bsdf = Bsdf::new(&m, &sp, dir);
+        let mut rng = Rng::new(5, 0);
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        for _ in 0..n {
+            let wi = bsdf.sample_glossy(rng.uniform2());
+            sum += (phong_lobe_pdf(axis.dot(wi), 10.0) / bsdf.glossy_pdf(wi)) as f64;
+        }
+        let mean = sum / n as f64;
+        assert!((mean - 1.0).abs() < 0.03, "mean h / pdf {mean}");
     }
 
     /// The mean of `weight` over many samples is the albedo seen from `dir`:

@@ -507,10 +507,8 @@ impl MapLight<'_> {
                 sum += weight * reflected / q;
                 let wi = bsdf.sample_glossy(rng.uniform2());
                 let (cos, pdf) = (wi.dot(sp.ns), bsdf.glossy_pdf(wi));
-                // (A density below the normal floats: the lobe was drawn about
-                // the geometric normal's mirror direction, the shading
-                // normal's sending it below the surface; `f / pdf` would
-                // overflow.)
+                // (A density below the normal floats, as far off the lobe as
+                // a draw goes, would overflow `f / pdf`.)
                 if !(cos > 0.0 && wi.dot(sp.ng) > 0.0 && pdf >= f32::MIN_POSITIVE) {
                     return sum;
                 }
