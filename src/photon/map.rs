@@ -148,7 +148,7 @@ fn median_radius(values: &[(Vec3, Vec3, f32)]) -> Option<f32> {
 /// One of a map's precomputed irradiance records, as
 /// [`PhotonMap::covering_record`] finds it (valid for that map only).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct RecordId(pub u32);
+pub struct RecordId(u32);
 
 /// Irradiance estimated ahead at one photon's position.
 #[derive(Debug, Clone, PartialEq)]
