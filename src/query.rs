@@ -194,6 +194,11 @@ impl<'a> SceneQuery<'a> {
     pub fn material(&self, sp: &SurfacePoint) -> &'a Material {
         &self.scene.materials[sp.material]
     }
+
+    /// The material of the triangle an intersector hit.
+    pub fn hit_material(&self, hit: &Hit) -> &'a Material {
+        &self.scene.materials[self.scene.meshes[hit.geom_id as usize].material]
+    }
 }
 
 /// A point on a surface, seen from an incoming ray.

@@ -466,13 +466,12 @@ impl MapLight<'_> {
                 }
                 None => return sum,
             };
-            let m = &scene.materials[scene.meshes[hit.geom_id as usize].material];
+            let m = self.query.hit_material(&hit);
             if m.is_glossy_or_diffuse() {
                 // Most hits read their record from the triangle's patch,
                 // without working out the point.
                 let texel = read.or_else(|| {
-                    let side = self.record_side(&ray, first)?;
-                    self.texels?.irradiance(scene, global, &self.global_estimate, side)
+                    self.texels?.irradiance(scene, global, &self.global_estimate, SideHit::of(&ray, hit))
                 });
                 let sp = match texel {
                     Some(e) => {
@@ -558,9 +557,7 @@ impl MapLight<'_> {
     /// the face's normal, as in `SurfacePoint`.
     fn record_side(&self, ray: &Ray, first: Option<Interaction<Hit>>) -> Option<SideHit> {
         let Some(Interaction::Surface(hit)) = first else { return None };
-        let scene = self.query.scene;
-        let m = &scene.materials[scene.meshes[hit.geom_id as usize].material];
-        m.is_glossy_or_diffuse().then(|| SideHit { hit, front: hit.ng.dot(ray.dir) < 0.0 })
+        self.query.hit_material(&hit).is_glossy_or_diffuse().then(|| SideHit::of(ray, hit))
     }
 }
 

@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::accel::Hit;
+use crate::accel::{Hit, Ray};
 use crate::config::Estimate;
 use crate::integrator::Context;
 use crate::photon::{PhotonMap, PhotonMaps};
@@ -248,6 +248,13 @@ pub(in crate::integrator) struct SideHit {
     pub front: bool,
 }
 
+impl SideHit {
+    /// `ray`'s hit, on the side the ray comes from.
+    pub(in crate::integrator) fn of(ray: &Ray, hit: Hit) -> SideHit {
+        SideHit { hit, front: hit.ng.dot(ray.dir) < 0.0 }
+    }
+}
+
 /// A patch of one side of a triangle: where its irradiance is kept, and its
 /// centre's barycentrics.
 #[derive(Debug, Clone, Copy)]
@@ -273,7 +280,6 @@ fn point_and_normal(mesh: &Mesh, prim: u32, u: f32, v: f32, front: bool) -> (Vec
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::Ray;
     use crate::query::{Interaction, RayCount, SurfacePoint};
     use crate::sampling::{uniform_sphere, Rng};
 
@@ -307,10 +313,10 @@ mod tests {
             else {
                 continue;
             };
-            if !scene.materials[scene.meshes[hit.geom_id as usize].material].is_glossy_or_diffuse() {
+            if !ctx.query.hit_material(&hit).is_glossy_or_diffuse() {
                 continue;
             }
-            let at = SideHit { hit, front: hit.ng.dot(ray.dir) < 0.0 };
+            let at = SideHit::of(&ray, hit);
             let read = texels.irradiance(&scene, global, &estimate, at);
             let patch = texels.patch(at).expect("the box's triangles are cut into patches");
             let (p, n) = point_and_normal(
