@@ -1,14 +1,17 @@
 //! A uniform grid over a map's photons for its estimates where light is
 //! thin: "the up to `k` photons nearest a point within a radius `r`", when
-//! fewer than a few hundred photons lie near it.
+//! fewer than a thousand or so photons lie near it.
 //!
 //! Most caustic-map estimates are such: under the point-lit Cornell box 94%
 //! of them find fewer than `k` photons within the radius (counted, issue
-//! 17). A kd-tree walks down to them and back; here the cells are a little
-//! wider than `r`, so the 27 around the query's cell hold every photon
-//! within `r` (rounding included), and the photons of a cell lie side by
-//! side. Where the cells around a query hold many photons (in a caustic's
-//! focus), the kd-tree answers instead.
+//! 17). A kd-tree walks down to them and back; here the photons of a cell
+//! lie side by side, and a query scans the cells its ball of radius `r`
+//! reaches. The cells are a little more than `2 r` wide, so the ball
+//! reaches two along each axis (the query's, and the neighbour on the side
+//! it is nearer): eight cells to look up, where cells as wide as `r` took
+//! 27, each a likely miss of the cache (BENCHMARKS.md). Where the cells
+//! around a query hold many photons (in a caustic's focus), the kd-tree
+//! answers instead.
 //!
 //! The answer is the kd-tree's: the same photons, the same squared
 //! distances (`(p - q).length_squared()`, the order of kiddo's sum), nearest
@@ -23,7 +26,7 @@ use super::runs;
 
 /// The most photons the cells around a query may hold for the grid to
 /// answer (beyond, the kd-tree is faster).
-const MOST_SCANNED: usize = 512;
+const MOST_SCANNED: usize = 1024;
 
 /// How far from the origin, in cells, a grid may reach (queries twice as
 /// far): a point's place in cells is then off by at most a few thousandths
@@ -31,9 +34,14 @@ const MOST_SCANNED: usize = 512;
 /// [`EDGE_PER_RADIUS`].
 const AXIS_CELLS: f32 = (1 << 12) as f32;
 
-/// A cell's edge, in the radius it answers for: the hundredth beyond covers
-/// a photon and a query each put in a cell off by rounding.
-const EDGE_PER_RADIUS: f32 = 1.01;
+/// A cell's edge, in the radius it answers for: a ball of radius `r` spans
+/// at most two cells along an axis (but in a sliver, see [`REACH`]).
+const EDGE_PER_RADIUS: f32 = 2.02;
+
+/// How far, in cells, a query's ball reaches along each axis from its
+/// centre: the radius (`1 / EDGE_PER_RADIUS`), and a hundredth of a cell
+/// beyond for a photon and a query each put off by rounding.
+const REACH: f32 = 1.0 / EDGE_PER_RADIUS + 0.01;
 
 /// Photons by grid cell, for searches of radius up to `radius`.
 pub(super) struct Grid {
@@ -89,14 +97,17 @@ impl Grid {
         if !(g.cmpge(Vec3::ONE).all() && g.cmplt(Vec3::splat(2.0 * AXIS_CELLS)).all()) {
             return None;
         }
-        let centre = g.floor().as_ivec3();
+        // The cells the ball reaches: two along an axis, three where the
+        // query is within a hundredth of a cell of a cell's middle.
+        let (low, high) =
+            ((g - Vec3::splat(REACH)).floor().as_ivec3(), (g + Vec3::splat(REACH)).floor().as_ivec3());
         let mut ranges: [std::ops::Range<usize>; 27] = Default::default();
         let mut count = 0;
         let mut scanned = 0;
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    if let Some(range) = self.table.get(key_of(centre + IVec3::new(dx, dy, dz))) {
+        for z in low.z..=high.z {
+            for y in low.y..=high.y {
+                for x in low.x..=high.x {
+                    if let Some(range) = self.table.get(key_of(IVec3::new(x, y, z))) {
                         scanned += range.len();
                         ranges[count] = range;
                         count += 1;
