@@ -400,9 +400,32 @@ pub fn strata(count: u32) -> (u32, u32) {
 /// Sample `index` of `count` stratified (jittered) samples over the unit square:
 /// uniform within its own cell of the [`strata`] grid.
 pub fn stratified(index: u32, count: u32, rng: &mut Rng) -> Vec2 {
-    let (columns, rows) = strata(count);
-    let cell = Vec2::new((index % columns) as f32, (index / columns % rows) as f32);
-    (cell + rng.uniform2()) / Vec2::new(columns as f32, rows as f32)
+    Strata::of(count).sample(index, rng)
+}
+
+/// The [`strata`] grid of a count, worked out once for a loop over its
+/// samples (the factorisation's square root and divisions were, per gather
+/// ray, a share of final gathering's own work).
+#[derive(Debug, Clone, Copy)]
+pub struct Strata {
+    columns: u32,
+    rows: u32,
+}
+
+impl Strata {
+    /// The grid for `count` samples.
+    pub fn of(count: u32) -> Strata {
+        let (columns, rows) = strata(count);
+        Strata { columns, rows }
+    }
+
+    /// Sample `index`, as [`stratified`] draws it.
+    #[inline]
+    pub fn sample(&self, index: u32, rng: &mut Rng) -> Vec2 {
+        let Strata { columns, rows } = *self;
+        let cell = Vec2::new((index % columns) as f32, (index / columns % rows) as f32);
+        (cell + rng.uniform2()) / Vec2::new(columns as f32, rows as f32)
+    }
 }
 
 /// A cosine-weighted direction about +z from two uniforms (Malley's method:

@@ -21,7 +21,7 @@ use crate::light::Light;
 use crate::photon::guide::GatherGuide;
 use crate::photon::{build_maps, PhotonMap, PhotonMaps};
 use crate::query::{Interaction, RayCount, SceneQuery, SurfacePoint};
-use crate::sampling::{around, cosine_hemisphere, stratified, Frame, Rng};
+use crate::sampling::{around, cosine_hemisphere, Frame, Rng, Strata};
 use record_texels::{RecordTexels, SideHit};
 
 /// The photon-mapping integrator.
@@ -325,10 +325,11 @@ impl MapLight<'_> {
         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); GATHER_BATCH];
         // Each ray's BSDF, `cos / pdf`, and whether it followed the glossy lobe.
         let mut weights = [(Vec3::ZERO, 0.0, false); GATHER_BATCH];
+        let strata = Strata::of(n);
         for start in (0..n).step_by(GATHER_BATCH) {
             let mut len = 0;
             for i in start..(start + GATHER_BATCH as u32).min(n) {
-                let u = stratified(i, n, rng);
+                let u = strata.sample(i, rng);
                 let (wi, cos_over_pdf, from_lobe) = if glossy > 0.0 {
                     glossy_or_gathered(sp, bsdf, plan, u)
                 } else {
@@ -690,6 +691,7 @@ fn glossy_or_gathered(sp: &SurfacePoint, bsdf: &Bsdf, plan: &GatherPlan, u: Vec2
 mod tests {
     use super::*;
     use crate::material::Material;
+    use crate::sampling::stratified;
 
     /// The direction the light `arriving` is brightest from, at the plane
     /// of `bsdf::tests::point` (normal +y): off the glossy lobe of

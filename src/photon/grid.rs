@@ -17,11 +17,11 @@
 //! distances (`(p - q).length_squared()`, the order of kiddo's sum), nearest
 //! first; among photons at exactly equal distances the smaller index first.
 
-use glam::{IVec3, Vec3};
+use glam::{UVec3, Vec3};
 
 use crate::bounds::Bounds;
 
-use super::cell_table::{key, points_by_cell, CellTable};
+use super::cell_table::{key, points_by_cell, unkey, CellTable};
 use super::runs;
 
 /// The most photons the cells around a query may hold for the grid to
@@ -52,6 +52,9 @@ pub(super) struct Grid {
     table: CellTable,
     /// Positions and indices, cell by cell, by index within a cell.
     photons: Vec<(Vec3, u32)>,
+    /// Which cells hold photons, where the box of cells they fill is small
+    /// enough to keep a bit a cell.
+    occupied: Option<Occupied>,
 }
 
 impl Grid {
@@ -80,7 +83,14 @@ impl Grid {
             photons.extend(cell.iter().map(|&(_, i)| (positions[i as usize], i)));
         }
         let table = CellTable::new(&ranges);
-        Some(Grid { origin, radius, inverse_edge, table, photons })
+        let occupied = Occupied::new(ranges.iter().map(|&(key, ..)| unkey(key)));
+        Some(Grid { origin, radius, inverse_edge, table, photons, occupied })
+    }
+
+    /// Whether the grid keeps a bit for each cell of the box its photons fill.
+    #[cfg(test)]
+    pub(super) fn keeps_occupied_bits(&self) -> bool {
+        self.occupied.is_some()
     }
 
     /// The up to `k` photons nearest `q` within `max_radius`, as (squared
@@ -99,15 +109,25 @@ impl Grid {
         }
         // The cells the ball reaches: two along an axis, three where the
         // query is within a hundredth of a cell of a cell's middle.
-        let (low, high) =
-            ((g - Vec3::splat(REACH)).floor().as_ivec3(), (g + Vec3::splat(REACH)).floor().as_ivec3());
+        let (low, mut high) =
+            ((g - Vec3::splat(REACH)).floor().as_uvec3(), (g + Vec3::splat(REACH)).floor().as_uvec3());
+        if let Some(occupied) = &self.occupied {
+            // Past the box of occupied cells there are none to look up.
+            high = high.min(occupied.cells - UVec3::ONE);
+        }
         let mut ranges: [std::ops::Range<usize>; 27] = Default::default();
         let mut count = 0;
         let mut scanned = 0;
         for z in low.z..=high.z {
             for y in low.y..=high.y {
                 for x in low.x..=high.x {
-                    if let Some(range) = self.table.get(key_of(IVec3::new(x, y, z))) {
+                    let cell = UVec3::new(x, y, z);
+                    // (A lookup in the table, empty cell or not, is likely
+                    // a miss of the cache; the bits seldom are.)
+                    if self.occupied.as_ref().is_some_and(|occupied| !occupied.has(cell)) {
+                        continue;
+                    }
+                    if let Some(range) = self.table.get(key(cell)) {
                         scanned += range.len();
                         ranges[count] = range;
                         count += 1;
@@ -117,6 +137,10 @@ impl Grid {
         }
         if scanned > MOST_SCANNED {
             return None;
+        }
+        if count == 0 {
+            // (Most queries far from a caustic: no allocation.)
+            return Some(Vec::new());
         }
         let r2 = max_radius * max_radius;
         let mut found: Vec<u64> = Vec::with_capacity(k.min(64));
@@ -132,6 +156,45 @@ impl Grid {
     }
 }
 
-fn key_of(cell: IVec3) -> u64 {
-    key(cell.as_uvec3())
+/// A bit for each cell of the box from cell 0 to the last occupied one
+/// along each axis: whether it holds photons.
+struct Occupied {
+    /// The box's size in cells.
+    cells: UVec3,
+    bits: Vec<u64>,
+}
+
+/// The most cells [`Occupied`] keeps bits for (2 MiB).
+const MOST_OCCUPIED_BITS: u64 = 1 << 24;
+
+impl Occupied {
+    /// The bits of the occupied cells `cells`, or `None` if their box has
+    /// more than [`MOST_OCCUPIED_BITS`] cells.
+    fn new(occupied: impl Iterator<Item = UVec3> + Clone) -> Option<Occupied> {
+        let cells = occupied.clone().fold(UVec3::ZERO, UVec3::max) + UVec3::ONE;
+        let count = cells.as_u64vec3().element_product();
+        if count > MOST_OCCUPIED_BITS {
+            return None;
+        }
+        let mut bits = vec![0u64; count.div_ceil(64) as usize];
+        let mut this = Occupied { cells, bits: Vec::new() };
+        for cell in occupied {
+            let i = this.index(cell);
+            bits[i / 64] |= 1 << (i % 64);
+        }
+        this.bits = bits;
+        Some(this)
+    }
+
+    /// The bit of a cell within the box.
+    fn index(&self, cell: UVec3) -> usize {
+        ((cell.z as usize * self.cells.y as usize) + cell.y as usize) * self.cells.x as usize
+            + cell.x as usize
+    }
+
+    /// Whether a cell within the box holds photons.
+    fn has(&self, cell: UVec3) -> bool {
+        let i = self.index(cell);
+        self.bits[i / 64] >> (i % 64) & 1 != 0
+    }
 }

@@ -649,11 +649,31 @@ mod tests {
         // floor, above it, outside the grid, and just within the radius of
         // a photon along an axis (the ball's far end, where it reaches the
         // next cell).
+        // With one photon far off too, the box of cells is too big for a
+        // bit a cell, and every cell around a query is looked up.
         let mut rng = Rng::new(9, 6);
+        for far in [false, true] {
+            let mut photons = Photon::on_lattice_and_scattered(6000, 50, &mut rng);
+            if far {
+                photons.push(Photon::on_floor(Vec3::splat(60.0)));
+            }
+            let tree = PhotonMap::new(photons.clone());
+            let celled = PhotonMap::new(photons).with_cells_for(0.05);
+            let grid = celled.grid.as_ref().expect("cells");
+            assert_eq!(grid.keeps_occupied_bits(), !far);
+            the_cells_find_what_kiddo_finds(&tree, &celled, grid, &mut rng);
+        }
+        // No cells where rounding could put a photon two cells off: too many
+        // cells from the origin, or no radius at all.
         let photons = Photon::on_lattice_and_scattered(6000, 50, &mut rng);
-        let tree = PhotonMap::new(photons.clone());
-        let celled = PhotonMap::new(photons).with_cells_for(0.05);
-        let grid = celled.grid.as_ref().expect("cells");
+        for radius in [1e-4, 0.0, f32::NAN] {
+            assert!(PhotonMap::new(photons.clone()).with_cells_for(radius).grid.is_none(), "{radius}");
+        }
+    }
+
+    /// The searches of `kiddo_and_the_cells_find_the_same_nearest_photons`
+    /// over the photons of `tree` and `celled` (with cells, `grid`).
+    fn the_cells_find_what_kiddo_finds(tree: &PhotonMap, celled: &PhotonMap, grid: &Grid, rng: &mut Rng) {
         let mut from_cells = 0;
         for j in 0..1200 {
             let q = match j % 6 {
@@ -689,14 +709,6 @@ mod tests {
         }
         // The cells answered most searches within their edge on and near the floor.
         assert!(from_cells > 3000, "{from_cells} searches from the cells");
-        // No cells where rounding could put a photon two cells off: too many
-        // cells from the origin, or no radius at all.
-        for radius in [1e-4, 0.0, f32::NAN] {
-            assert!(
-                PhotonMap::new(celled.photons().to_vec()).with_cells_for(radius).grid.is_none(),
-                "{radius}"
-            );
-        }
     }
 
     #[test]
