@@ -95,17 +95,19 @@ impl Grid {
 
     /// The up to `k` photons nearest `q` within `max_radius`, as (squared
     /// distance, index), nearest first; `None` when the grid cannot answer
-    /// (a radius beyond the one it was made for, a query outside it, or too
-    /// many photons around it).
+    /// (a radius beyond the one it was made for, a query not a number, or
+    /// too many photons around it).
     pub(super) fn nearest(&self, q: Vec3, k: usize, max_radius: f32) -> Option<Vec<(f32, usize)>> {
         if max_radius.is_nan() || max_radius > self.radius || k == 0 {
             return None;
         }
-        // Queries beyond the photons' box by more than a cell find none of
-        // them in the cells around (and those far off would hash wrongly).
+        // A query more than a cell below every photon along an axis, or
+        // thousands of cells above, has none within the radius (and the
+        // cells of those far off would hash wrongly): the answer is known
+        // without a search (the kd-tree's descent found nothing there).
         let g = (q - self.origin) * self.inverse_edge;
         if !(g.cmpge(Vec3::ONE).all() && g.cmplt(Vec3::splat(2.0 * AXIS_CELLS)).all()) {
-            return None;
+            return (!g.is_nan()).then(Vec::new);
         }
         // The cells the ball reaches: two along an axis, three where the
         // query is within a hundredth of a cell of a cell's middle.
