@@ -105,6 +105,12 @@ impl<'a> Bsdf<'a> {
         self.choice[0] + self.choice[1]
     }
 
+    /// The chance that [`Bsdf::sample`] picks a specular lobe (mirror or
+    /// glass): 0 exactly without one.
+    pub fn specular_probability(&self) -> f32 {
+        self.choice[2] + self.choice[3]
+    }
+
     /// The smooth lobes' BRDF for light arriving from `wi` (unit, away from
     /// the surface) and leaving towards the viewer.
     pub fn eval(&self, wi: Vec3) -> Vec3 {

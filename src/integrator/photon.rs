@@ -443,7 +443,9 @@ impl MapLight<'_> {
     /// the lights, and a ray along the lobe for the rest, the two weighed by
     /// the balance heuristic where that ray meets a light's front. Without
     /// it, light between glossy surfaces was lost: a Cornell box with glossy
-    /// walls lost 29% of its indirect light (BENCHMARKS.md).
+    /// walls lost 29% of its indirect light (BENCHMARKS.md). A surface that
+    /// is also a mirror or glass goes on through them, with the chance of
+    /// their share (a box of walls a third mirror lost 17% without).
     ///
     /// `read`: the irradiance the first hit reads from its patch, where
     /// already read ([`RecordTexels`]).
@@ -485,36 +487,51 @@ impl MapLight<'_> {
                         Some(sp)
                     }
                 };
-                if m.specular.max_element() <= 0.0 || bounces >= 8 {
+                if !(m.specular.max_element() > 0.0 || m.is_specular()) || bounces >= 8 {
                     return sum;
                 }
                 let sp = sp.unwrap_or_else(|| SurfacePoint::new(scene, &ray, &hit));
                 let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
-                let q = bsdf.glossy_share();
-                if !(q > 0.0 && rng.uniform() < q) {
+                // Which part goes on, if any (Russian roulette): the glossy
+                // lobe with the chance of its share of the reflectance, the
+                // mirror or glass with that of theirs. (Without a mirror or
+                // glass the lobe's chance is its share of the smooth parts.)
+                let specular = bsdf.specular_probability();
+                let q = bsdf.glossy_share() * (1.0 - specular);
+                if q + specular <= 0.0 {
                     return sum;
                 }
-                let lobe = |wi: Vec3| bsdf.glossy_pdf(wi);
-                let reflected = direct_light_against(
-                    &self.query,
-                    &sp,
-                    &bsdf,
-                    self.light_samples,
-                    Against::LobeOnly(&lobe),
-                    rng,
-                    count,
-                );
-                sum += weight * reflected / q;
-                let wi = bsdf.sample_glossy(rng.uniform2());
-                let (cos, pdf) = (wi.dot(sp.ns), bsdf.glossy_pdf(wi));
-                // (A density below the normal floats, as far off the lobe as
-                // a draw goes, would overflow `f / pdf`.)
-                if !(cos > 0.0 && wi.dot(sp.ng) > 0.0 && pdf >= f32::MIN_POSITIVE) {
+                let u = rng.uniform();
+                if u < q {
+                    let lobe = |wi: Vec3| bsdf.glossy_pdf(wi);
+                    let reflected = direct_light_against(
+                        &self.query,
+                        &sp,
+                        &bsdf,
+                        self.light_samples,
+                        Against::LobeOnly(&lobe),
+                        rng,
+                        count,
+                    );
+                    sum += weight * reflected / q;
+                    let wi = bsdf.sample_glossy(rng.uniform2());
+                    let (cos, pdf) = (wi.dot(sp.ns), bsdf.glossy_pdf(wi));
+                    // (A density below the normal floats, as far off the lobe as
+                    // a draw goes, would overflow `f / pdf`.)
+                    if !(cos > 0.0 && wi.dot(sp.ng) > 0.0 && pdf >= f32::MIN_POSITIVE) {
+                        return sum;
+                    }
+                    weight *= bsdf.eval_glossy(wi) / pdf * (cos / q);
+                    lights = LightsSeen::Shared { from: sp.p, pdf };
+                    ray = sp.spawn(wi);
+                } else if u < q + specular {
+                    let Some(s) = bsdf.sample_specular(rng) else { return sum };
+                    weight *= s.weight / specular;
+                    lights = lights.through_specular();
+                    ray = sp.spawn(s.wi);
+                } else {
                     return sum;
                 }
-                weight *= bsdf.eval_glossy(wi) / pdf * (cos / q);
-                lights = LightsSeen::Shared { from: sp.p, pdf };
-                ray = sp.spawn(wi);
             } else {
                 if bounces >= 8 {
                     break;
