@@ -59,6 +59,18 @@ pub struct AreaFace {
     skew: f64,
     /// Radiance leaving the front: `power / (pi area)`.
     radiance: Vec3,
+    /// A little over the squared distance from the centre to the farthest
+    /// corner, for [`Light::crossing`] to pass over most points of the
+    /// light's plane outside it without the exact test; infinite where the
+    /// light is too small (or large) for `f32` squares to say.
+    reach2: f32,
+}
+
+impl AreaFace {
+    /// The squared distance from the centre to the farthest corner.
+    fn half_diagonal2(&self) -> f64 {
+        0.25 * (self.length2.0 + self.length2.1 + 2.0 * self.skew.abs())
+    }
 }
 
 /// A light source.
@@ -105,13 +117,20 @@ impl Light {
     /// edges `u` and `v`, emitting `power` from the side `u x v` faces.
     pub fn area(center: Vec3, u: Vec3, v: Vec3, power: Vec3) -> Light {
         let area = numeric::cross_length(u, v);
-        let face = AreaFace {
+        let mut face = AreaFace {
             normal: numeric::unit_cross(u, v).unwrap_or(Vec3::ZERO),
             area,
             length2: (u.as_dvec3().length_squared(), v.as_dvec3().length_squared()),
             skew: u.as_dvec3().dot(v.as_dvec3()),
             radiance: (power.as_dvec3() / (std::f64::consts::PI * area)).as_vec3(),
+            reach2: f32::INFINITY,
         };
+        // A thousandth over: far beyond the rounding of a point's squared
+        // distance in `f32` (a few ulps), kept where those are normal floats.
+        let reach2 = 1.001 * face.half_diagonal2();
+        if (1e-30..1e30).contains(&reach2) {
+            face.reach2 = reach2 as f32;
+        }
         Light::Area { center, u, v, power, face }
     }
 
@@ -175,11 +194,17 @@ impl Light {
         if !(t > 0.0 && t <= ray.t_max) {
             return None;
         }
+        // Most rays that cross the light's plane cross it far from the
+        // light: beyond its farthest corner, it is missed.
+        let local = ray.at(t) - center;
+        if local.length_squared() > face.reach2 {
+            return None;
+        }
         // Where on the light, in units of its edges (in f64: tiny edges'
         // squares underflow): `local = a u + b v`. Edges at an angle other
         // than a right one need the pair solved together; projecting on
         // each edge alone would find another shape than the one sampled.
-        let local = (ray.at(t) - center).as_dvec3();
+        let local = local.as_dvec3();
         let ((uu, vv), uv) = (face.length2, face.skew);
         let inside = |x: f64| x.abs() <= 0.5;
         let (lu, lv) = (local.dot(u.as_dvec3()), || local.dot(v.as_dvec3()));
@@ -269,8 +294,7 @@ impl Light {
                 if face.normal.as_dvec3().dot(to_p) <= 0.0 {
                     return 0.0;
                 }
-                let half_diagonal2 = 0.25 * (face.length2.0 + face.length2.1 + 2.0 * face.skew.abs());
-                reach_over(self.reach_strength(), to_p.length_squared().max(half_diagonal2))
+                reach_over(self.reach_strength(), to_p.length_squared().max(face.half_diagonal2()))
             }
         }
     }
@@ -595,7 +619,11 @@ mod tests {
             let ray = Ray { t_max: 2.0, ..Ray::new(eye, s.position - eye) };
             assert!(light.crossing(&ray).is_some(), "{:?}", s.position);
         }
-        for (a, b) in [(0.48, 0.48), (-0.48, -0.48), (0.48, -0.3), (-0.1, 0.49)] {
+        // (The farthest corners, (0.5, 0.5) and (-0.5, -0.5), within a
+        // ten-thousandth: the quick test of the distance to the centre
+        // passes them on to the exact one.)
+        let corners = [(0.49995, 0.49995), (-0.49995, -0.49995)];
+        for (a, b) in [(0.48, 0.48), (-0.48, -0.48), (0.48, -0.3), (-0.1, 0.49)].into_iter().chain(corners) {
             assert!(light.crossing(&towards(a, b)).is_some(), "inside at ({a}, {b})");
         }
         for (a, b) in [(0.52, 0.48), (0.48, 0.52), (-0.52, -0.48), (-0.48, -0.52), (0.0, 0.51)] {
