@@ -170,22 +170,20 @@ struct Occupied {
 const MOST_OCCUPIED_BITS: u64 = 1 << 24;
 
 impl Occupied {
-    /// The bits of the occupied cells `cells`, or `None` if their box has
-    /// more than [`MOST_OCCUPIED_BITS`] cells.
-    fn new(occupied: impl Iterator<Item = UVec3> + Clone) -> Option<Occupied> {
-        let cells = occupied.clone().fold(UVec3::ZERO, UVec3::max) + UVec3::ONE;
+    /// The bits of the cells `full`, or `None` if their box has more than
+    /// [`MOST_OCCUPIED_BITS`] cells.
+    fn new(full: impl Iterator<Item = UVec3> + Clone) -> Option<Occupied> {
+        let cells = full.clone().fold(UVec3::ZERO, UVec3::max) + UVec3::ONE;
         let count = cells.as_u64vec3().element_product();
         if count > MOST_OCCUPIED_BITS {
             return None;
         }
-        let mut bits = vec![0u64; count.div_ceil(64) as usize];
-        let mut this = Occupied { cells, bits: Vec::new() };
-        for cell in occupied {
-            let i = this.index(cell);
-            bits[i / 64] |= 1 << (i % 64);
+        let mut occupied = Occupied { cells, bits: vec![0; count.div_ceil(64) as usize] };
+        for cell in full {
+            let i = occupied.index(cell);
+            occupied.bits[i / 64] |= 1 << (i % 64);
         }
-        this.bits = bits;
-        Some(this)
+        Some(occupied)
     }
 
     /// The bit of a cell within the box.

@@ -648,9 +648,8 @@ mod tests {
         // and beyond it (the tree answers); queries at photons, on the
         // floor, above it, outside the grid, and just within the radius of
         // a photon along an axis (the ball's far end, where it reaches the
-        // next cell).
-        // With one photon far off too, the box of cells is too big for a
-        // bit a cell, and every cell around a query is looked up.
+        // next cell). Then again with one photon far off too: the box of
+        // cells is too big for a bit a cell, and every cell is looked up.
         let mut rng = Rng::new(9, 6);
         for far in [false, true] {
             let mut photons = Photon::on_lattice_and_scattered(6000, 50, &mut rng);
