@@ -10,7 +10,7 @@ use crate::accel::{Hit, Intersector, Ray};
 use crate::light::{Light, Side};
 use crate::material::Material;
 use crate::optics;
-use crate::scene::Scene;
+use crate::scene::{Mesh, Scene};
 
 /// Rays traced, for the summary line of a render.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
@@ -224,6 +224,14 @@ impl SurfacePoint {
     /// The point `hit` of `ray` in `scene`.
     pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfacePoint {
         let mesh = &scene.meshes[hit.geom_id as usize];
+        let face = mesh.face_normal(hit.prim_id);
+        SurfacePoint::facing(mesh, hit, face, face.dot(ray.dir) < 0.0)
+    }
+
+    /// The point of `hit` on `mesh` (the triangle's unit normal `face`),
+    /// seen from the front (against `face`) or from the back, as
+    /// [`SurfacePoint::new`] sees it from a ray.
+    pub fn facing(mesh: &Mesh, hit: &Hit, face: Vec3, front: bool) -> SurfacePoint {
         let [i0, i1, i2] = mesh.indices[hit.prim_id as usize];
         let (b0, b1, b2) = (1.0 - hit.u - hit.v, hit.u, hit.v);
         let [p0, p1, p2] = [i0, i1, i2].map(|i| mesh.positions[i as usize]);
@@ -231,8 +239,6 @@ impl SurfacePoint {
         // The barycentric blend is accurate to a few ulps of its terms (pbrt's
         // bound is 7 ulps); 32 ulps leaves a margin for Embree's own rounding of (u, v).
         let error = 32.0 * f32::EPSILON * (w0.abs() + w1.abs() + w2.abs());
-        let face = mesh.face_normal(hit.prim_id);
-        let front = face.dot(ray.dir) < 0.0;
         let ng = if front { face } else { -face };
         let ns = mesh.shading_normal(hit.prim_id, hit.u, hit.v);
         let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };

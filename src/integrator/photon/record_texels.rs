@@ -26,6 +26,7 @@ use crate::accel::{Hit, Ray};
 use crate::config::Estimate;
 use crate::integrator::Context;
 use crate::photon::{PhotonMap, PhotonMaps};
+use crate::query::SurfacePoint;
 use crate::scene::{Mesh, Scene};
 
 /// A patch's edge, at most, in the records' median gathering radii. The
@@ -227,10 +228,8 @@ impl RecordTexels {
         mut kept: u64,
     ) -> Option<Vec3> {
         if kept == UNSEEN {
-            let SideHit { hit, front } = at;
-            let mesh = &scene.meshes[hit.geom_id as usize];
-            let (p, n) = point_and_normal(mesh, hit.prim_id, patch.u, patch.v, front);
-            kept = match global.covering_record(p, n, estimate) {
+            let centre = centre(scene, at, patch);
+            kept = match global.covering_record(centre.p, centre.ns, estimate) {
                 Some(record) => pack(global.record_irradiance(record)),
                 None => NO_RECORD,
             };
@@ -265,22 +264,18 @@ struct Patch {
     v: f32,
 }
 
-/// The point at barycentrics `(u, v)` of triangle `prim` of `mesh`, and its
-/// unit shading normal on the front side or the back (as a ray's
-/// `SurfacePoint` flips it).
-fn point_and_normal(mesh: &Mesh, prim: u32, u: f32, v: f32, front: bool) -> (Vec3, Vec3) {
-    let [p0, p1, p2] = mesh.indices[prim as usize].map(|i| mesh.positions[i as usize]);
-    let p = (1.0 - u - v) * p0 + u * p1 + v * p2;
-    let face = mesh.face_normal(prim);
-    let ng = if front { face } else { -face };
-    let ns = mesh.shading_normal(prim, u, v);
-    (p, if ns.dot(ng) < 0.0 { -ns } else { ns })
+/// The surface point at the centre of `patch`, of the hit `at`, on the side
+/// `at` met it.
+fn centre(scene: &Scene, at: SideHit, patch: Patch) -> SurfacePoint {
+    let SideHit { hit, front } = at;
+    let mesh = &scene.meshes[hit.geom_id as usize];
+    SurfacePoint::facing(mesh, &Hit { u: patch.u, v: patch.v, ..hit }, mesh.face_normal(hit.prim_id), front)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::query::{Interaction, RayCount, SurfacePoint};
+    use crate::query::{Interaction, RayCount};
     use crate::sampling::{uniform_sphere, Rng};
 
     /// Gather-like rays from inside the point-lit Cornell box (whose
@@ -319,14 +314,8 @@ mod tests {
             let at = SideHit::of(&ray, hit);
             let read = texels.irradiance(&scene, global, &estimate, at);
             let patch = texels.patch(at).expect("the box's triangles are cut into patches");
-            let (p, n) = point_and_normal(
-                &scene.meshes[hit.geom_id as usize],
-                hit.prim_id,
-                patch.u,
-                patch.v,
-                at.front,
-            );
-            let centre = global.covering_record(p, n, &estimate);
+            let centre = centre(&scene, at, patch);
+            let centre = global.covering_record(centre.p, centre.ns, &estimate);
             assert_eq!(read.is_some(), centre.is_some());
             let sp = SurfacePoint::new(&scene, &ray, &hit);
             let (Some(read), Some(centre), Some(point)) =
