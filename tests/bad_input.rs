@@ -162,6 +162,36 @@ fn bpt_errors_name_the_bpt_file() {
     assert!(err.starts_with(&format!("{}:", bpt.display())) && err.contains("file ends"), "{err}");
 }
 
+/// A mesh named where a scene belongs (`caustix render bunny.obj`) is told
+/// apart from a broken scene: the error says what the file is and how to
+/// render it, not what TOML makes of its first line. A binary PLY is known
+/// by its header whatever its name.
+#[test]
+fn mesh_given_as_a_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = write(dir.path(), "bunny.OBJ", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let mut ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\n".to_vec();
+    ply.extend([0xffu8, 0xfe, 0x00, 0x80]);
+    let ply = common::write_bytes(dir.path(), "model.dat", &ply);
+    let bpt = write(dir.path(), "pot.bpt", "1\n3 3\n");
+    for (path, what, entry) in [
+        (&obj, "a Wavefront OBJ mesh", "`[[mesh]]` with `file = \"bunny.OBJ\"`"),
+        (&ply, "a PLY mesh", "`[[mesh]]` with `file = \"model.dat\"`"),
+        (&bpt, "a Bezier patch file", "`[[teapot]]` with `file = \"pot.bpt\"`"),
+    ] {
+        let err = Scene::load(path).unwrap_err().to_string();
+        let says = format!("{}: this is {what}", path.display());
+        assert!(err.starts_with(&says) && err.contains(entry), "{err}");
+    }
+    // A scene file whose name says mesh is still a scene, and a broken
+    // TOML file is still reported as TOML.
+    let named_obj = write(dir.path(), "scene.obj", QUAD_SCENE);
+    assert!(Scene::load(&named_obj).is_ok());
+    let broken = write(dir.path(), "scene.toml", "v 0 0 0\n");
+    let err = Scene::load(&broken).unwrap_err().to_string();
+    assert!(err.contains("scene.toml:1:") && !err.contains("mesh"), "{err}");
+}
+
 /// Every bad input through the binary: exit code 1, one `error:` line, no panic.
 #[test]
 fn cli_reports_errors_without_panicking() {

@@ -28,6 +28,68 @@ use build::Builder;
 pub use camera::Camera;
 pub use mesh::{Bounds, Mesh};
 
+/// The kinds of mesh file a user may name where a scene file belongs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum MeshKind {
+    Obj,
+    Ply,
+    Patches,
+}
+
+impl MeshKind {
+    /// The kind the file's extension names, if any.
+    fn named(path: &Path) -> Option<MeshKind> {
+        let extension = path.extension()?.to_str()?.to_ascii_lowercase();
+        match extension.as_str() {
+            "obj" => Some(MeshKind::Obj),
+            "ply" => Some(MeshKind::Ply),
+            "bpt" => Some(MeshKind::Patches),
+            _ => None,
+        }
+    }
+
+    /// The kind named, or else a PLY file by its first line (whatever its
+    /// name); `None` for anything else or a file that cannot be read.
+    fn sniffed(path: &Path) -> Option<MeshKind> {
+        use std::io::Read;
+        MeshKind::named(path).or_else(|| {
+            let mut head = [0u8; 4];
+            let file = std::fs::File::open(path).ok()?;
+            file.take(4).read_exact(&mut head).ok()?;
+            matches!(&head, b"ply\n" | b"ply\r").then_some(MeshKind::Ply)
+        })
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            MeshKind::Obj => "a Wavefront OBJ mesh",
+            MeshKind::Ply => "a PLY mesh",
+            MeshKind::Patches => "a Bezier patch file (.bpt)",
+        }
+    }
+}
+
+/// The error for a mesh file given where a scene file belongs (`caustix
+/// render bunny.obj`): what the file is and how to render it, instead of
+/// what the TOML parser makes of its first line.
+fn not_a_scene(path: &Path, kind: Option<MeshKind>) -> Option<Error> {
+    let kind = kind?;
+    let name =
+        path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let entry = match kind {
+        MeshKind::Patches => format!("`[[teapot]]` with `file = \"{name}\"`"),
+        MeshKind::Obj | MeshKind::Ply => format!("`[[mesh]]` with `file = \"{name}\"` and a `material`"),
+    };
+    Some(Error::input(
+        path,
+        format!(
+            "this is {}, not a scene: caustix renders scene files (TOML); name it in one as {entry}, \
+             beside a `[camera]` and a light (README, \"Scene files\"; `scenes/` has examples)",
+            kind.describe()
+        ),
+    ))
+}
+
 /// Everything needed to render: geometry, materials, lights, camera.
 #[derive(Debug, Clone)]
 pub struct Scene {
@@ -62,7 +124,9 @@ impl Scene {
 
     /// [`Scene::load`] with some of the file's settings replaced.
     pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene> {
-        let text = crate::files::read_text(path, crate::files::MAX_TEXT_BYTES)?;
+        // A binary mesh fails as text before its name is looked at.
+        let text = crate::files::read_text(path, crate::files::MAX_TEXT_BYTES)
+            .map_err(|e| not_a_scene(path, MeshKind::sniffed(path)).unwrap_or(e))?;
         Scene::from_toml_with(&text, path, overrides)
     }
 
@@ -74,6 +138,9 @@ impl Scene {
     /// [`Scene::from_toml`] with some of the file's settings replaced.
     pub fn from_toml_with(text: &str, path: &Path, overrides: &Overrides) -> Result<Scene> {
         let parsed: file::SceneFile = toml::from_str(text).map_err(|e| {
+            if let Some(err) = not_a_scene(path, MeshKind::named(path)) {
+                return err;
+            }
             let location = e.span().map(|s| Location::from_offset(text, s.start));
             Error::Input {
                 path: path.to_path_buf(),
