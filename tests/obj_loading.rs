@@ -45,6 +45,40 @@ fn mtl_materials_map_onto_ours() {
     assert!(scene.warnings[0].contains("things.obj:hot"));
 }
 
+/// What an MTL file asks for that is not read (texture maps, emission,
+/// statements tobj does not know) is said once per kind, naming the file and
+/// a material; statements that only restate the defaults are not; and
+/// nothing is said when the scene gives the mesh its own material.
+#[test]
+fn mtl_features_not_read_are_warned_about_once_per_kind() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut mtl = String::new();
+    for i in 0..3 {
+        mtl += &format!("newmtl wood{i}\nKd 0.5 0.4 0.3\nmap_Kd wood{i}.png\nKe 0 0 0\nTf 1 1 1\nTr 0\n");
+    }
+    mtl += "newmtl lamp\nKd 0.8 0.8 0.8\nKe 5 5 4\nPr 0.4\nnorm lamp_n.png\n";
+    write(dir.path(), "room.mtl", &mtl);
+    let mut obj = String::from("mtllib room.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for name in ["wood0", "wood1", "wood2", "lamp"] {
+        obj += &format!("o {name}\nusemtl {name}\nf 1 2 3\n");
+    }
+    write(dir.path(), "room.obj", &obj);
+    let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"room.obj\"\n");
+    let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+    let warned = |says: &str| scene.warnings.iter().filter(|w| w.contains(says)).count();
+    assert_eq!(scene.warnings.len(), 3, "{:#?}", scene.warnings);
+    assert_eq!(warned("room.obj: 3 of its 4 materials use texture maps (`wood0`: map_Kd `wood0.png`)"), 1);
+    assert_eq!(warned("room.obj: 1 of its 4 materials emits light (Ke, as `lamp` does)"), 1);
+    assert_eq!(warned("were left out: Pr, norm ("), 1, "{:#?}", scene.warnings);
+    // The flat colours are what renders.
+    let wood = scene.meshes.iter().find(|m| m.name == "room.obj:wood1").unwrap();
+    assert_eq!(scene.materials[wood.material].diffuse, Vec3::new(0.5, 0.4, 0.3));
+
+    let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"room.obj\"\nmaterial = \"white\"\n");
+    let scene = Scene::load(&write(dir.path(), "s2.toml", &text)).unwrap();
+    assert!(scene.warnings.is_empty(), "{:#?}", scene.warnings);
+}
+
 #[test]
 fn obj_normals_are_used_when_present() {
     let dir = tempfile::tempdir().unwrap();

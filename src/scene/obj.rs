@@ -60,7 +60,10 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
     };
     let materials = match (mtl, material_override) {
         (_, Some(_)) => Vec::new(),
-        (Ok(list), None) => list.iter().map(|m| convert_material(m, &file_name, &mut warnings)).collect(),
+        (Ok(list), None) => {
+            warnings.extend(unread_mtl_features(&list, &file_name));
+            list.iter().map(|m| convert_material(m, &file_name, &mut warnings)).collect()
+        }
         (Err(_), None) => {
             if models.iter().any(|m| m.mesh.material_id.is_some()) {
                 return Err(Error::input(path, format!("cannot read its materials{mtl_problem}")));
@@ -213,6 +216,78 @@ fn convert_material(m: &tobj::Material, file: &str, warnings: &mut Vec<String>) 
         ));
     }
     out
+}
+
+/// What the MTL materials of `file` ask for that caustix does not read,
+/// one warning per kind (not per material: a model may have hundreds):
+/// texture maps (the flat colours are used), emission (`Ke`; lights are
+/// declared in the scene file), and statements tobj keeps as unknown
+/// (`Pr`, `norm`, `Tr`, ...), but for those that say nothing beyond the
+/// defaults (`Tf 1 1 1`, `Tr 0`).
+fn unread_mtl_features(list: &[tobj::Material], file: &str) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let textured: Vec<(&str, &str, &str)> = list
+        .iter()
+        .filter_map(|m| {
+            let maps = [
+                ("map_Kd", &m.diffuse_texture),
+                ("map_Ks", &m.specular_texture),
+                ("bump", &m.normal_texture),
+                ("map_Ns", &m.shininess_texture),
+                ("map_d", &m.dissolve_texture),
+                ("map_Ka", &m.ambient_texture),
+            ];
+            let (kind, map) = maps.into_iter().find_map(|(kind, map)| Some((kind, map.as_deref()?)))?;
+            Some((m.name.as_str(), kind, map))
+        })
+        .collect();
+    if let Some(&(name, kind, map)) = textured.first() {
+        warnings.push(format!(
+            "{file}: {} of its {} materials {} texture maps (`{name}`: {kind} `{map}`), which caustix \
+             does not read: their flat colours (Kd, Ks) are used instead",
+            textured.len(),
+            list.len(),
+            if textured.len() == 1 { "uses" } else { "use" }
+        ));
+    }
+    let glowing: Vec<&str> = list
+        .iter()
+        .filter(|m| m.emissive.is_some_and(|e| e.iter().any(|&c| c > 0.0)))
+        .map(|m| m.name.as_str())
+        .collect();
+    if let Some(name) = glowing.first() {
+        warnings.push(format!(
+            "{file}: {} of its {} materials {} light (Ke, as `{name}` does), which surfaces here do \
+             not: declare the lights in the scene file (`[[area_light]]`, README)",
+            glowing.len(),
+            list.len(),
+            if glowing.len() == 1 { "emits" } else { "emit" }
+        ));
+    }
+    let says_nothing = |key: &str, value: &str| {
+        let numbers: Vec<f32> = value.split_whitespace().filter_map(|w| w.parse().ok()).collect();
+        match key {
+            "Tf" => numbers.iter().all(|&x| x == 1.0),
+            "Tr" => numbers.iter().all(|&x| x == 0.0),
+            _ => false,
+        }
+    };
+    let mut unknown: Vec<&str> = list
+        .iter()
+        .flat_map(|m| m.unknown_param.iter())
+        .filter(|(key, value)| !says_nothing(key, value))
+        .map(|(key, _)| key.as_str())
+        .collect();
+    unknown.sort_unstable();
+    unknown.dedup();
+    if !unknown.is_empty() {
+        warnings.push(format!(
+            "{file}: MTL statements caustix does not read were left out: {} (it reads Kd, Ks, Ns, Ni, d \
+             and illum)",
+            unknown.join(", ")
+        ));
+    }
+    warnings
 }
 
 /// Finds the first line `tobj` most likely failed on, since its errors carry
