@@ -70,3 +70,41 @@ fn a_ply_mesh_needs_a_material_and_a_sound_file() {
     .to_string();
     assert!(err.contains("cut.ply") && err.contains("ends in vertex 2"), "{err}");
 }
+
+/// What a PLY file holds that is not read (a scan's vertex colours, its
+/// confidence) is said in one warning, with what colours the mesh instead;
+/// so are triangles without area, left out as an OBJ's are. A file of
+/// positions and normals alone says nothing.
+#[test]
+fn ply_properties_not_read_and_triangles_left_out_are_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let head = SHAPES.split("[[teapot]]").next().unwrap();
+    let load = |file: &str, text: &str| {
+        write(dir.path(), file, text);
+        let scene = format!("{head}[[mesh]]\nfile = \"{file}\"\nmaterial = \"grey\"\n");
+        Scene::load(&write(dir.path(), "s.toml", &scene)).unwrap()
+    };
+    let scan = load(
+        "scan.ply",
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+         property float confidence\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+         element face 2\nproperty list uchar int vertex_indices\nend_header\n\
+         0 0 0 1 255 0 0\n1 0 0 1 0 255 0\n0 1 0 1 0 0 255\n2 0 0 1 9 9 9\n3 0 1 2\n3 0 1 3\n",
+    );
+    assert_eq!(
+        scan.warnings,
+        [
+            "scan.ply: vertex properties caustix does not read were left out: confidence, red, green, blue \
+             (the [[mesh]]'s material colours the whole mesh)",
+            "scan.ply: 1 of its 2 triangles have no area (repeated or collinear vertices) and were left out",
+        ]
+    );
+    let plain = load(
+        "plain.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+         0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n",
+    );
+    assert!(plain.warnings.is_empty(), "{:?}", plain.warnings);
+}

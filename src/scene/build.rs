@@ -446,8 +446,25 @@ fn load_mesh_file(path: &Path, material: Option<usize>, first_material: usize) -
     })?;
     let ply = ply::load(path)?;
     let name = path.file_name().map_or_else(|| "ply".into(), |n| n.to_string_lossy().into_owned());
-    let mesh = Mesh::new(name, ply.positions, ply.indices, ply.normals, material);
-    Ok(obj::ObjContents { meshes: vec![mesh], materials: Vec::new(), warnings: Vec::new() })
+    let mut warnings = Vec::new();
+    if !ply.unread.is_empty() {
+        let colours =
+            ply.unread.iter().any(|p| matches!(p.as_str(), "red" | "green" | "blue" | "r" | "g" | "b"));
+        warnings.push(format!(
+            "{name}: vertex properties caustix does not read were left out: {}{}",
+            ply.unread.join(", "),
+            if colours { " (the [[mesh]]'s material colours the whole mesh)" } else { "" }
+        ));
+    }
+    let faces = ply.indices.len();
+    let mesh = Mesh::new(name.clone(), ply.positions, ply.indices, ply.normals, material);
+    if mesh.indices.len() < faces {
+        warnings.push(format!(
+            "{name}: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",
+            faces - mesh.indices.len()
+        ));
+    }
+    Ok(obj::ObjContents { meshes: vec![mesh], materials: Vec::new(), warnings })
 }
 
 #[cfg(test)]

@@ -112,6 +112,9 @@ pub struct PlyMesh {
     pub indices: Vec<[u32; 3]>,
     /// Vertex normals, when the file has them.
     pub normals: Option<Vec<Vec3>>,
+    /// The vertex properties the file has that are not read (colours,
+    /// texture coordinates, a scanner's confidence...), in the file's order.
+    pub unread: Vec<String>,
 }
 
 /// Reads the PLY file at `path`.
@@ -125,14 +128,25 @@ pub fn load(path: &Path) -> Result<PlyMesh> {
 pub fn read(path: &Path, mut input: impl BufRead) -> Result<PlyMesh> {
     let (format, elements) = read_header(path, &mut input)?;
     let mut reader = DataReader { path, input, format, tokens: Vec::new(), token: 0 };
-    let mut mesh = PlyMesh { positions: Vec::new(), indices: Vec::new(), normals: None };
+    let mut mesh = PlyMesh { positions: Vec::new(), indices: Vec::new(), normals: None, unread: Vec::new() };
     let mut vertex_count = None;
     for element in &elements {
         match element.name.as_str() {
             "vertex" => {
                 let (positions, normals) = reader.vertices(element)?;
+                let normals_read = normals.is_some();
                 mesh.positions = positions;
                 mesh.normals = normals;
+                let read = |name: &str| {
+                    matches!(name, "x" | "y" | "z") || normals_read && matches!(name, "nx" | "ny" | "nz")
+                };
+                mesh.unread = element
+                    .properties
+                    .iter()
+                    .map(Property::name)
+                    .filter(|name| !read(name))
+                    .map(str::to_string)
+                    .collect();
                 vertex_count = Some(element.count);
             }
             "face" => {
