@@ -144,6 +144,31 @@ fn cli_warns_when_the_integrator_leaves_out_a_lights_light_through_glass() {
     assert!(stdout.contains("caustics  100.0% of the light goes from point or spot lights"), "{stdout}");
 }
 
+/// A scene with lights that renders black (here its light is shut inside a
+/// closed sphere) gets a warning; one with light in it, and a preview
+/// (which shows no light), do not.
+#[test]
+fn cli_warns_when_a_scene_with_lights_renders_black() {
+    let dir = tempfile::tempdir().unwrap();
+    let shell = "[[sphere]]\ncenter = [0, 0, 4]\nradius = 0.3\nmaterial = \"white\"\n";
+    let shut = write(dir.path(), "shut.toml", &format!("{QUAD_SCENE}\n{shell}"));
+    let open = write(dir.path(), "open.toml", QUAD_SCENE);
+    let out = dir.path().join("out.png");
+    let stderr_of = |scene: &Path, integrator: &str| {
+        let args = ["render", "--integrator", integrator, "--width", "16", "--height", "16", "--spp", "1"];
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+        let run = caustix(&[&args[..], &[scene.as_os_str(), "-o".as_ref(), out.as_os_str()]].concat());
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        String::from_utf8_lossy(&run.stderr).into_owned()
+    };
+    for integrator in ["path", "photon"] {
+        let stderr = stderr_of(&shut, integrator);
+        assert!(stderr.contains("shut.toml: every pixel is black"), "{integrator}: {stderr}");
+        assert!(!stderr_of(&open, integrator).contains("black"), "{integrator}");
+    }
+    assert!(!stderr_of(&shut, "normals").contains("black"));
+}
+
 #[test]
 fn cli_info_lists_the_scene() {
     let dir = tempfile::tempdir().unwrap();

@@ -378,6 +378,20 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         Some((Err(e), _)) => (rendered.film.beauty(), Some(e)),
     };
     beauty.save(&output, args.exposure)?;
+    // A black image from a scene with lights is most often a scene mistake
+    // (a light inside a closed mesh, or facing away), not what was meant.
+    let lit = !matches!(settings.integrator, IntegratorKind::Normals | IntegratorKind::Depth);
+    if lit
+        && settings.region.is_none()
+        && !scene.lights.is_empty()
+        && beauty.pixels.iter().all(|p| *p == glam::Vec3::ZERO)
+    {
+        eprintln!(
+            "warning: {}: every pixel is black: no light reached what the camera sees (is a light inside a \
+             closed mesh, or facing away from the scene? `caustix info` lists the lights)",
+            scene_path.display()
+        );
+    }
     for path in rendered.film.write_aovs(&output, &args.aov, args.exposure)? {
         eprintln!("wrote {}", path.display());
     }
