@@ -265,6 +265,23 @@ fn snapshots_need_a_time_budget() {
     assert!(out.exists());
 }
 
+/// A budget too short for one sample a pixel is overrun (every pixel gets
+/// one), and the render says so and why, rather than reporting the time as
+/// if it were the budget's.
+#[test]
+fn a_budget_shorter_than_one_sample_a_pixel_is_said_to_be_overrun() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.png");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml");
+    let args = ["--time", "0.001", "--width", "256", "--height", "256", "-o"];
+    let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+    let run =
+        common::caustix(&[&["render".as_ref(), scene.as_os_str()], &args[..], &[out.as_os_str()]].concat());
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(stderr.contains("over its budget of 0.001 s: every pixel takes at least one sample"), "{stderr}");
+}
+
 #[test]
 fn sppm_runs_passes_until_the_budget() {
     let scene = cornell();
