@@ -49,9 +49,13 @@ impl MeshKind {
     }
 
     /// The kind named, or else a PLY file by its first line (whatever its
-    /// name); `None` for anything else or a file that cannot be read.
+    /// name); `None` for anything else, or anything but a regular file
+    /// (opening a FIFO would wait for a writer for ever).
     fn sniffed(path: &Path) -> Option<MeshKind> {
         use std::io::Read;
+        if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+            return None;
+        }
         MeshKind::named(path).or_else(|| {
             let mut head = [0u8; 4];
             let file = std::fs::File::open(path).ok()?;
