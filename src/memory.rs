@@ -42,8 +42,9 @@ const IRRADIANCE_RECORD_BYTES: u64 =
 
 /// Bytes per caustic photon in the caustic map's grid (`photon/grid.rs`):
 /// its position and index, and while it is built 16 B of cell keys; the
-/// table's share.
-const CAUSTIC_GRID_BYTES: u64 = 16 + 16 + 8;
+/// table's share; and the finer grids where photons are dense, of at most
+/// `FINER_PHOTONS` times the photons, each 16 B and the table's share.
+const CAUSTIC_GRID_BYTES: u64 = 16 + 16 + 8 + crate::photon::grid::FINER_PHOTONS as u64 * 20;
 
 /// Bytes per photon an SPPM pass gathers (`integrator/sppm`): the photon
 /// (its traced chunk is freed as it is copied into the pass's array), its

@@ -686,28 +686,108 @@ mod tests {
                 }
             };
             for (k, max_radius) in [(1, 0.05), (20, 0.05), (60, 0.05), (100, 0.02), (100, 0.0), (20, 0.2)] {
-                let (by_tree, by_cells) = (tree.nearest(q, k, max_radius), celled.nearest(q, k, max_radius));
-                let answered = grid.nearest(q, k, max_radius).is_some();
-                from_cells += answered as usize;
-                let order = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
-                assert!(
-                    !answered || by_cells.is_sorted_by(|a, b| order(a, b).is_lt()),
-                    "{q} k {k}: nearest first, ties by index"
-                );
-                let distances = |found: &[(f32, usize)]| found.iter().map(|f| f.0).collect::<Vec<_>>();
-                assert_eq!(distances(&by_tree), distances(&by_cells), "{q} k {k} radius {max_radius}");
-                // Those nearer than the last place: the same photons.
-                let last = by_cells.last().map_or(0.0, |f| f.0);
-                let inside = |found: &[(f32, usize)]| {
-                    let mut inside: Vec<_> = found.iter().filter(|f| f.0 < last).copied().collect();
-                    inside.sort_by(order);
-                    inside
-                };
-                assert_eq!(inside(&by_tree), inside(&by_cells), "{q} k {k} radius {max_radius}");
+                from_cells += the_cells_answer_as_kiddo(tree, celled, grid, q, k, max_radius) as usize;
             }
         }
         // The cells answered most searches within their edge on and near the floor.
         assert!(from_cells > 3000, "{from_cells} searches from the cells");
+    }
+
+    /// Asserts that `celled` (with cells, `grid`) finds the `k` photons
+    /// nearest `q` within `max_radius` that `tree` finds: the same squared
+    /// distances, nearest first (the cells give the smaller index first
+    /// among photons at exactly the same distance, kiddo an order of its
+    /// own), and the same photons nearer than the last place. Says whether
+    /// the cells answered.
+    fn the_cells_answer_as_kiddo(
+        tree: &PhotonMap,
+        celled: &PhotonMap,
+        grid: &Grid,
+        q: Vec3,
+        k: usize,
+        max_radius: f32,
+    ) -> bool {
+        let (by_tree, by_cells) = (tree.nearest(q, k, max_radius), celled.nearest(q, k, max_radius));
+        let answered = grid.nearest(q, k, max_radius).is_some();
+        let order = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        assert!(
+            !answered || by_cells.is_sorted_by(|a, b| order(a, b).is_lt()),
+            "{q} k {k}: nearest first, ties by index"
+        );
+        let distances = |found: &[(f32, usize)]| found.iter().map(|f| f.0).collect::<Vec<_>>();
+        assert_eq!(distances(&by_tree), distances(&by_cells), "{q} k {k} radius {max_radius}");
+        // Those nearer than the last place: the same photons.
+        let last = by_cells.last().map_or(0.0, |f| f.0);
+        let inside = |found: &[(f32, usize)]| {
+            let mut inside: Vec<_> = found.iter().filter(|f| f.0 < last).copied().collect();
+            inside.sort_by(order);
+            inside
+        };
+        assert_eq!(inside(&by_tree), inside(&by_cells), "{q} k {k} radius {max_radius}");
+        answered
+    }
+
+    #[test]
+    fn dense_photons_are_found_in_finer_cells_as_kiddo_finds_them() {
+        // A caustic's focus: photons on the floor ever denser towards its
+        // centre (uniform in distance out to 0.1, so a density falling as
+        // one over the distance), and a dense ball of photons in the air
+        // beside it, over the lattice and scattered photons of the test
+        // above. The cells are for a radius of 0.05, too wide to scan near
+        // the focus: finer cells answer there, down to where their balls
+        // hold `k` photons (or the search's radius is within theirs). The
+        // queries: at the dense photons, around the focus out to past its
+        // edge (where the finer cells hold only the photons near dense
+        // ones), just above the floor, and in and around the ball.
+        let mut rng = Rng::new(3, 9);
+        let mut photons = Photon::on_lattice_and_scattered(6000, 50, &mut rng);
+        let (focus, ball) = (Vec3::new(0.5, 0.0, 0.5), Vec3::new(0.2, 0.1, 0.7));
+        for _ in 0..20_000 {
+            let (d, a) = (0.1 * rng.uniform(), std::f32::consts::TAU * rng.uniform());
+            photons.push(Photon::on_floor(focus + d * Vec3::new(a.cos(), 0.0, a.sin())));
+        }
+        for _ in 0..5_000 {
+            photons.push(Photon::on_floor(
+                ball + 0.02 * crate::sampling::uniform_sphere(rng.uniform2()) * rng.uniform().cbrt(),
+            ));
+        }
+        let n = photons.len();
+        let tree = PhotonMap::new(photons.clone());
+        let celled = PhotonMap::new(photons).with_cells_for(0.05);
+        let grid = celled.grid.as_ref().expect("cells");
+        let levels = grid.levels();
+        assert!(levels.len() >= 4, "{levels:?}");
+        let finer: usize = levels[1..].iter().map(|&(_, photons)| photons).sum();
+        assert!(finer <= super::super::grid::FINER_PHOTONS * n, "{levels:?}");
+        let (mut dense, mut answered) = (0, 0);
+        for j in 0..3000 {
+            let q = match j % 5 {
+                0 => celled.photons()[6000 + j * 17 % 25_000].position,
+                1 => focus + 0.15 * Vec3::new(rng.uniform() - 0.5, 0.0, rng.uniform() - 0.5),
+                2 => {
+                    focus
+                        + Vec3::new(
+                            0.3 * (rng.uniform() - 0.5),
+                            0.01 * rng.uniform(),
+                            0.3 * (rng.uniform() - 0.5),
+                        )
+                }
+                3 => ball + 0.03 * crate::sampling::uniform_sphere(rng.uniform2()) * rng.uniform(),
+                _ => focus + 0.05 * crate::sampling::uniform_sphere(rng.uniform2()),
+            };
+            for (k, max_radius) in [(1, 0.05), (20, 0.05), (60, 0.05), (200, 0.05), (60, 0.03), (60, 0.002)] {
+                let by_cells = the_cells_answer_as_kiddo(&tree, &celled, grid, q, k, max_radius);
+                if grid.is_dense_at(q) {
+                    dense += 1;
+                    answered += by_cells as usize;
+                }
+            }
+        }
+        // Most searches where the cells are too full to scan are answered
+        // by finer ones (here, with most photons dense, the finer cells
+        // reach their budget at an eighth of the radius, and the ball's
+        // middle is left to the kd-tree).
+        assert!(dense > 5000 && answered > dense / 2, "{answered} of {dense}");
     }
 
     #[test]

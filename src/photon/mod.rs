@@ -20,7 +20,7 @@ mod cell_table;
 mod cells;
 pub mod disc;
 pub mod file;
-mod grid;
+pub(crate) mod grid;
 pub mod guide;
 pub mod map;
 pub mod nearest;
