@@ -38,8 +38,8 @@ const MOST_SCANNED: usize = 1024;
 
 /// The most photons scanned in the grid above the first fine enough one,
 /// where that one's ball holds fewer than `k` (beyond, the kd-tree
-/// answers): a scan of 8192 costs about what kiddo's search does where
-/// photons are that dense.
+/// answers). In the ring's render kiddo's searches there took about 7 us
+/// each, and a scan takes about a nanosecond a photon.
 const MOST_SCANNED_ABOVE: usize = 8192;
 
 /// How far from the origin, in cells, a grid may reach (queries twice as
@@ -64,8 +64,8 @@ const FINER_RADIUS: f32 = 0.5;
 const MOST_FINER: usize = 6;
 
 /// The most photons the finer grids hold in all, in the map's photons: the
-/// example scenes' take 1.0 to 2.3 times (their caustics' photons, near
-/// dense cells, at up to four finer radii).
+/// example scenes' take 1.8 to 2.0 times (their caustics' photons, at up to
+/// five finer radii; BENCHMARKS.md).
 pub(crate) const FINER_PHOTONS: usize = 3;
 
 /// Photons by grid cell, for searches of radius up to `radius`.
@@ -80,11 +80,11 @@ pub(super) struct Grid {
     /// Which cells hold photons, where the box of cells they fill is small
     /// enough to keep a bit a cell.
     occupied: Option<Occupied>,
-    /// The same photons in cells of half the radius, where some cells here
-    /// hold more than [`MOST_SCANNED`] photons among eight of them: where
-    /// photons are dense, their `k` nearest lie much nearer than the
-    /// radius, and a ball of a finer grid's radius that holds `k` or more
-    /// holds them all.
+    /// The photons of the cells here from which a query goes down (those
+    /// whose cells around hold more than [`MOST_SCANNED`]: see
+    /// [`near_dense_cells`]), in cells of half the radius. Where photons
+    /// are dense their `k` nearest lie much nearer than the radius, and a
+    /// finer grid's ball that holds `k` or more holds them all.
     finer: Option<Box<Grid>>,
 }
 
@@ -177,13 +177,15 @@ impl Grid {
         if max_radius.is_nan() || max_radius > self.radius || k == 0 {
             return None;
         }
-        let (ranges, count) = match self.around(q) {
-            Around::NotANumber => return None,
-            Around::Nothing => return Some(Vec::new()),
-            Around::Cells { ranges, count, photons } if photons <= MOST_SCANNED => (ranges, count),
-            Around::Cells { .. } => return self.nearest_where_dense(q, k, max_radius),
-        };
-        Some(runs::nearest_first(self.within(&ranges[..count], q, max_radius), k))
+        let around = self.around(q);
+        match &around {
+            Around::NotANumber => None,
+            Around::Nothing => Some(Vec::new()),
+            Around::Cells { ranges, count, photons } if *photons <= MOST_SCANNED => {
+                Some(runs::nearest_first(self.within(&ranges[..*count], q, max_radius), k))
+            }
+            Around::Cells { .. } => self.nearest_where_dense(q, k, max_radius, around),
+        }
     }
 
     /// [`Grid::nearest`] where the cells around `q` hold too many photons
@@ -193,9 +195,15 @@ impl Grid {
     /// radius: its ball is then the whole search). If it holds fewer, the
     /// grid above it (twice the radius, and likely more than `k` in its
     /// ball) is scanned, if it holds at most [`MOST_SCANNED_ABOVE`]. Else
-    /// `None`: the kd-tree answers.
-    fn nearest_where_dense(&self, q: Vec3, k: usize, max_radius: f32) -> Option<Vec<(f32, usize)>> {
-        let mut above = (self, self.around(q));
+    /// `None`: the kd-tree answers. `around`: what `q`'s ball reaches here.
+    fn nearest_where_dense(
+        &self,
+        q: Vec3,
+        k: usize,
+        max_radius: f32,
+        around: Around,
+    ) -> Option<Vec<(f32, usize)>> {
+        let mut above = (self, around);
         while let Some(grid) = above.0.finer.as_deref() {
             let around = grid.around(q);
             let Around::Cells { photons, .. } = around else { return None };
