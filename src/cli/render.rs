@@ -415,13 +415,14 @@ fn summary(
         eprintln!("{note}");
     }
     let seconds = stats.elapsed.as_secs_f64();
-    // Every pixel takes a sample (SPPM a pass) whatever the budget: say so
-    // where that, not the budget, set the time.
+    // Every pixel takes a sample (SPPM a pass), after the photon maps the
+    // scene asks for, whatever the budget: say so where that, not the
+    // budget, set the time.
     if let Some(budget) = settings.time.filter(|&b| seconds > 1.25 * f64::from(b) + 0.1) {
         eprintln!(
             "note: the render took {seconds:.2} s, over its budget of {budget} s: every pixel takes at \
-             least one sample (SPPM one pass), and here that took longer; give a longer budget or a \
-             smaller image to keep to it"
+             least one sample (SPPM one pass), after the photon maps the scene's settings ask for, and \
+             here that took longer; give a longer budget, a smaller image or fewer photons to keep to it"
         );
     }
     let rays = stats.rays;
