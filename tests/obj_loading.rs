@@ -7,6 +7,16 @@ use caustix::scene::Scene;
 use common::{write, QUAD_SCENE};
 use glam::Vec3;
 
+/// An OBJ file of one triangle per material of `mtl`, each its own object
+/// named after its material.
+fn triangle_per_material(mtl: &str, names: &[&str]) -> String {
+    let mut obj = format!("mtllib {mtl}\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for name in names {
+        obj += &format!("o {name}\nusemtl {name}\nf 1 2 3\n");
+    }
+    obj
+}
+
 #[test]
 fn mtl_materials_map_onto_ours() {
     let dir = tempfile::tempdir().unwrap();
@@ -18,11 +28,11 @@ fn mtl_materials_map_onto_ours() {
          newmtl water\nillum 7\nNi 1.33\n\
          newmtl hot\nKd 0.9 0.9 0.9\nKs 0.6 0.6 0.6\nNs 30\n",
     );
-    let mut obj = String::from("mtllib things.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
-    for name in ["matte", "chrome", "water", "hot"] {
-        obj += &format!("o {name}\nusemtl {name}\nf 1 2 3\n");
-    }
-    write(dir.path(), "things.obj", &obj);
+    write(
+        dir.path(),
+        "things.obj",
+        &triangle_per_material("things.mtl", &["matte", "chrome", "water", "hot"]),
+    );
     let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"things.obj\"\n");
     let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
 
@@ -58,11 +68,7 @@ fn mtl_features_not_read_are_warned_about_once_per_kind() {
     }
     mtl += "newmtl lamp\nKd 0.8 0.8 0.8\nKe 5 5 4\nPr 0.4\nnorm lamp_n.png\n";
     write(dir.path(), "room.mtl", &mtl);
-    let mut obj = String::from("mtllib room.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
-    for name in ["wood0", "wood1", "wood2", "lamp"] {
-        obj += &format!("o {name}\nusemtl {name}\nf 1 2 3\n");
-    }
-    write(dir.path(), "room.obj", &obj);
+    write(dir.path(), "room.obj", &triangle_per_material("room.mtl", &["wood0", "wood1", "wood2", "lamp"]));
     let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"room.obj\"\n");
     let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
     let warned = |says: &str| scene.warnings.iter().filter(|w| w.contains(says)).count();

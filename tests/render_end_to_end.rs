@@ -116,19 +116,23 @@ fn cli_size_flags_override_the_scene() {
 /// the path tracer and Whitted render it black, and say so before they
 /// start; the integrators that carry the light say nothing; `info` gives
 /// the share.
+/// What the CLI prints rendering `scene` with `integrator` at 16 x 16 and a
+/// sample a pixel into `out`; the render must succeed.
+fn small_render_stderr(scene: &Path, integrator: &str, out: &Path) -> String {
+    let args = ["render", "--integrator", integrator, "--width", "16", "--height", "16", "--spp", "1"];
+    let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+    let run = caustix(&[&args[..], &[scene.as_os_str(), "-o".as_ref(), out.as_os_str()]].concat());
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    String::from_utf8_lossy(&run.stderr).into_owned()
+}
+
 #[test]
 fn cli_warns_when_the_integrator_leaves_out_a_lights_light_through_glass() {
     let dir = tempfile::tempdir().unwrap();
     let bulb = "[materials.glass]\ntransmittance = 1.0\n[[sphere]]\ncenter = [0, 0, 4]\nradius = 0.3\nmaterial = \"glass\"\n";
     let scene = write(dir.path(), "bulb.toml", &format!("{QUAD_SCENE}\n{bulb}"));
     let out = dir.path().join("bulb.png");
-    let run_with = |integrator: &str| {
-        let args = ["render", "--integrator", integrator, "--width", "16", "--height", "16", "--spp", "1"];
-        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
-        let run = caustix(&[&args[..], &[scene.as_os_str(), "-o".as_ref(), out.as_os_str()]].concat());
-        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-        String::from_utf8_lossy(&run.stderr).into_owned()
-    };
+    let run_with = |integrator: &str| small_render_stderr(&scene, integrator, &out);
     for integrator in ["path", "whitted"] {
         let stderr = run_with(integrator);
         assert!(
@@ -154,13 +158,7 @@ fn cli_warns_when_a_scene_with_lights_renders_black() {
     let shut = write(dir.path(), "shut.toml", &format!("{QUAD_SCENE}\n{shell}"));
     let open = write(dir.path(), "open.toml", QUAD_SCENE);
     let out = dir.path().join("out.png");
-    let stderr_of = |scene: &Path, integrator: &str| {
-        let args = ["render", "--integrator", integrator, "--width", "16", "--height", "16", "--spp", "1"];
-        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
-        let run = caustix(&[&args[..], &[scene.as_os_str(), "-o".as_ref(), out.as_os_str()]].concat());
-        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-        String::from_utf8_lossy(&run.stderr).into_owned()
-    };
+    let stderr_of = |scene: &Path, integrator: &str| small_render_stderr(scene, integrator, &out);
     for integrator in ["path", "photon"] {
         let stderr = stderr_of(&shut, integrator);
         assert!(stderr.contains("shut.toml: every pixel is black"), "{integrator}: {stderr}");
