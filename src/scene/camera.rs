@@ -28,7 +28,16 @@ impl Camera {
     /// A camera at `eye` looking at `look_at`, with `up` roughly up and
     /// `vertical_fov_deg` the full vertical field of view in degrees.
     pub fn new(eye: Vec3, look_at: Vec3, up: Vec3, vertical_fov_deg: f32) -> Result<Camera, String> {
-        let w = (eye - look_at)
+        let to_eye = eye - look_at;
+        if !to_eye.is_finite() {
+            return Err("the camera's eye and look_at are too far apart for 32-bit floats; \
+                        bring look_at nearer along the same line"
+                .to_string());
+        }
+        // Scaled to its largest component first: the squared length of a
+        // vector longer than about 1.8e19 overflows, and a look_at far off
+        // along the view is a fair way to give a direction.
+        let w = (to_eye / to_eye.abs().max_element())
             .try_normalize()
             .ok_or("the camera's eye and look_at are the same point; move one of them")?;
         let u = up.cross(w).try_normalize().ok_or(
@@ -134,6 +143,20 @@ mod tests {
         assert!(((next / next.dot(centre) - centre) * d).length() - 1.0 < 1e-3);
         assert!(c.project(c.eye + c.w, w, h).is_none(), "behind the camera");
         assert!(c.project(c.ray(-1.0, 10.0, w, h).at(3.0), w, h).is_none(), "left of the image");
+    }
+
+    #[test]
+    fn a_look_at_far_off_gives_its_direction() {
+        for far in [1e3, 1e20, 1e30, 3e38] {
+            let c = Camera::new(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, 1.0, -far), Vec3::Y, 40.0).unwrap();
+            assert!(c.w.abs_diff_eq(Vec3::Z, 1e-6) && c.u.abs_diff_eq(Vec3::X, 1e-6), "{far}: {c:?}");
+        }
+        let tilted = Camera::new(Vec3::ZERO, Vec3::new(1e25, 0.0, -1e25), Vec3::Y, 40.0).unwrap();
+        assert!(tilted.w.abs_diff_eq(Vec3::new(-1.0, 0.0, 1.0).normalize(), 1e-6), "{tilted:?}");
+        // Beyond the floats: refused, and not as "the same point".
+        let err =
+            Camera::new(Vec3::new(0.0, 0.0, 3e38), Vec3::new(0.0, 0.0, -3e38), Vec3::Y, 40.0).unwrap_err();
+        assert!(err.contains("too far apart"), "{err}");
     }
 
     #[test]
