@@ -165,19 +165,26 @@ fn bpt_errors_name_the_bpt_file() {
 /// A mesh named where a scene belongs (`caustix render bunny.obj`) is told
 /// apart from a broken scene: the error says what the file is and how to
 /// render it, not what TOML makes of its first line. A binary PLY is known
-/// by its header whatever its name.
+/// by its header whatever its name; so are the images and photon maps
+/// caustix writes (`caustix info image.exr` said "not UTF-8 text").
 #[test]
-fn mesh_given_as_a_scene() {
+fn mesh_image_or_photon_map_given_as_a_scene() {
     let dir = tempfile::tempdir().unwrap();
     let obj = write(dir.path(), "bunny.OBJ", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     let mut ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\n".to_vec();
     ply.extend([0xffu8, 0xfe, 0x00, 0x80]);
     let ply = common::write_bytes(dir.path(), "model.dat", &ply);
     let bpt = write(dir.path(), "pot.bpt", "1\n3 3\n");
+    let exr = common::write_bytes(dir.path(), "render.out", b"\x76\x2f\x31\x01\x02\x00\x00\x00\xff");
+    let png = common::write_bytes(dir.path(), "render.png", b"\x89PNG\r\n\x1a\n\x00");
+    let map = common::write_bytes(dir.path(), "maps.bin", b"CXPM\x01\x00\x00\x00\xff");
     for (path, what, entry) in [
         (&obj, "a Wavefront OBJ mesh", "`[[mesh]]` with `file = \"bunny.OBJ\"`"),
         (&ply, "a PLY mesh", "`[[mesh]]` with `file = \"model.dat\"`"),
         (&bpt, "a Bezier patch file", "`[[teapot]]` with `file = \"pot.bpt\"`"),
+        (&exr, "an OpenEXR image", "`caustix compare render.out REFERENCE`"),
+        (&png, "a PNG image", "`caustix compare render.png REFERENCE`"),
+        (&map, "a photon map saved by `caustix photons`", "`caustix render SCENE --photon-map maps.bin`"),
     ] {
         let err = Scene::load(path).unwrap_err().to_string();
         let says = format!("{}: this is {what}", path.display());

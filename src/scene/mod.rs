@@ -28,70 +28,93 @@ use build::Builder;
 pub use camera::Camera;
 pub use mesh::{Bounds, Mesh};
 
-/// The kinds of mesh file a user may name where a scene file belongs.
+/// The kinds of file a user may name where a scene file belongs: meshes,
+/// and what caustix itself writes (images, saved photon maps).
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum MeshKind {
+enum NotAScene {
     Obj,
     Ply,
     Patches,
+    /// An image, by the name of its format.
+    Image(&'static str),
+    PhotonMap,
 }
 
-impl MeshKind {
+impl NotAScene {
     /// The kind the file's extension names, if any.
-    fn named(path: &Path) -> Option<MeshKind> {
+    fn named(path: &Path) -> Option<NotAScene> {
         let extension = path.extension()?.to_str()?.to_ascii_lowercase();
         match extension.as_str() {
-            "obj" => Some(MeshKind::Obj),
-            "ply" => Some(MeshKind::Ply),
-            "bpt" => Some(MeshKind::Patches),
+            "obj" => Some(NotAScene::Obj),
+            "ply" => Some(NotAScene::Ply),
+            "bpt" => Some(NotAScene::Patches),
+            "exr" => Some(NotAScene::Image("an OpenEXR")),
+            "png" => Some(NotAScene::Image("a PNG")),
+            "hdr" => Some(NotAScene::Image("a Radiance HDR")),
+            "cxpm" => Some(NotAScene::PhotonMap),
             _ => None,
         }
     }
 
-    /// The kind named, or else a PLY file by its first line (whatever its
-    /// name); `None` for anything else, or anything but a regular file
-    /// (opening a FIFO would wait for a writer for ever).
-    fn sniffed(path: &Path) -> Option<MeshKind> {
+    /// The kind named, or else the kind its first bytes say (a PLY header,
+    /// an image's or a photon map's magic number), whatever its name;
+    /// `None` for anything else, or anything but a regular file (opening a
+    /// FIFO would wait for a writer for ever).
+    fn sniffed(path: &Path) -> Option<NotAScene> {
         use std::io::Read;
         if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
             return None;
         }
-        MeshKind::named(path).or_else(|| {
+        NotAScene::named(path).or_else(|| {
             let mut head = [0u8; 4];
             let file = std::fs::File::open(path).ok()?;
             file.take(4).read_exact(&mut head).ok()?;
-            matches!(&head, b"ply\n" | b"ply\r").then_some(MeshKind::Ply)
+            match &head {
+                b"ply\n" | b"ply\r" => Some(NotAScene::Ply),
+                b"\x76\x2f\x31\x01" => Some(NotAScene::Image("an OpenEXR")),
+                b"\x89PNG" => Some(NotAScene::Image("a PNG")),
+                b"#?RA" | b"#?RG" => Some(NotAScene::Image("a Radiance HDR")),
+                b"CXPM" => Some(NotAScene::PhotonMap),
+                _ => None,
+            }
         })
-    }
-
-    fn describe(self) -> &'static str {
-        match self {
-            MeshKind::Obj => "a Wavefront OBJ mesh",
-            MeshKind::Ply => "a PLY mesh",
-            MeshKind::Patches => "a Bezier patch file (.bpt)",
-        }
     }
 }
 
-/// The error for a mesh file given where a scene file belongs (`caustix
-/// render bunny.obj`): what the file is and how to render it, instead of
-/// what the TOML parser makes of its first line.
-fn not_a_scene(path: &Path, kind: Option<MeshKind>) -> Option<Error> {
+/// The error for a file given where a scene file belongs (`caustix render
+/// bunny.obj`, `caustix info image.exr`): what the file is and what to do
+/// with it, instead of what the TOML parser makes of its first line.
+fn not_a_scene(path: &Path, kind: Option<NotAScene>) -> Option<Error> {
     let kind = kind?;
     let name =
         path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
-    let entry = match kind {
-        MeshKind::Patches => format!("`[[teapot]]` with `file = \"{name}\"`"),
-        MeshKind::Obj | MeshKind::Ply => format!("`[[mesh]]` with `file = \"{name}\"` and a `material`"),
-    };
-    Some(Error::input(
-        path,
-        format!(
-            "this is {}, not a scene: caustix renders scene files (TOML); name it in one as {entry}, \
-             beside a `[camera]` and a light (README, \"Scene files\"; `scenes/` has examples)",
-            kind.describe()
+    let scene = "caustix renders scene files (TOML)";
+    let message = match kind {
+        NotAScene::Obj | NotAScene::Ply | NotAScene::Patches => {
+            let (what, entry) = match kind {
+                NotAScene::Obj => {
+                    ("a Wavefront OBJ mesh", format!("`[[mesh]]` with `file = \"{name}\"` and a `material`"))
+                }
+                NotAScene::Ply => {
+                    ("a PLY mesh", format!("`[[mesh]]` with `file = \"{name}\"` and a `material`"))
+                }
+                _ => ("a Bezier patch file (.bpt)", format!("`[[teapot]]` with `file = \"{name}\"`")),
+            };
+            format!(
+                "this is {what}, not a scene: {scene}; name it in one as {entry}, beside a `[camera]` \
+                 and a light (README, \"Scene files\"; `scenes/` has examples)"
+            )
+        }
+        NotAScene::Image(format) => format!(
+            "this is {format} image, not a scene: {scene}; `caustix compare {name} REFERENCE` \
+             measures an image against another"
         ),
-    ))
+        NotAScene::PhotonMap => format!(
+            "this is a photon map saved by `caustix photons`, not a scene: {scene}; render with \
+             it as `caustix render SCENE --photon-map {name}`, SCENE the scene it was traced for"
+        ),
+    };
+    Some(Error::input(path, message))
 }
 
 /// Everything needed to render: geometry, materials, lights, camera.
@@ -128,9 +151,9 @@ impl Scene {
 
     /// [`Scene::load`] with some of the file's settings replaced.
     pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene> {
-        // A binary mesh fails as text before its name is looked at.
+        // A binary mesh or image fails as text before its name is looked at.
         let text = crate::files::read_text(path, crate::files::MAX_TEXT_BYTES)
-            .map_err(|e| not_a_scene(path, MeshKind::sniffed(path)).unwrap_or(e))?;
+            .map_err(|e| not_a_scene(path, NotAScene::sniffed(path)).unwrap_or(e))?;
         Scene::from_toml_with(&text, path, overrides)
     }
 
@@ -142,7 +165,7 @@ impl Scene {
     /// [`Scene::from_toml`] with some of the file's settings replaced.
     pub fn from_toml_with(text: &str, path: &Path, overrides: &Overrides) -> Result<Scene> {
         let parsed: file::SceneFile = toml::from_str(text).map_err(|e| {
-            if let Some(err) = not_a_scene(path, MeshKind::named(path)) {
+            if let Some(err) = not_a_scene(path, NotAScene::named(path)) {
                 return err;
             }
             let location = e.span().map(|s| Location::from_offset(text, s.start));
