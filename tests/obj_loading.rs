@@ -130,3 +130,39 @@ fn bunny_loads_closed_with_outward_normals() {
         assert!(bunny.shading_normal(prim as u32, 1.0 / 3.0, 1.0 / 3.0).dot(face) > 0.0);
     }
 }
+
+/// A concave face (an L, its corners starting in the notch, where a fan
+/// from the first corner covers the notch and leaves out an arm) becomes
+/// triangles that all face the L's way and add up to its area, from an
+/// OBJ and from a PLY file alike.
+#[test]
+fn concave_faces_become_the_triangles_inside_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let corners = [[2, 0, 1], [1, 0, 1], [1, 0, 2], [0, 0, 2], [0, 0, 0], [2, 0, 0]];
+    let vertices: String = corners.iter().map(|[x, y, z]| format!("{x} {y} {z}\n")).collect();
+    let obj = vertices.lines().map(|v| format!("v {v}\n")).collect::<String>() + "f 1 2 3 4 5 6\n";
+    write(dir.path(), "l.obj", &obj);
+    let ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n{vertices}6 0 1 2 3 4 5\n"
+    );
+    write(dir.path(), "l.ply", &ply);
+    for file in ["l.obj", "l.ply"] {
+        let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"{file}\"\nmaterial = \"white\"\n");
+        let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+        let (positions, _, indices) = scene.merged_triangles();
+        // The L's triangles are the last 4 (after the quad scene's own).
+        let l = &indices[indices.len() - 4..];
+        let normals: Vec<Vec3> = l
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| positions[i as usize]);
+                (b - a).cross(c - a)
+            })
+            .collect();
+        // Corners listed clockwise seen from above: every triangle faces down.
+        assert!(normals.iter().all(|n| n.y < 0.0 && n.x == 0.0 && n.z == 0.0), "{file}: {l:?}");
+        let area: f32 = normals.iter().map(|n| n.length() / 2.0).sum();
+        assert!((area - 3.0).abs() < 1e-5, "{file}: the L's area is 3, its triangles' {area}");
+    }
+}

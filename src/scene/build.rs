@@ -456,6 +456,7 @@ fn load_mesh_file(path: &Path, material: Option<usize>, first_material: usize) -
             if colours { " (the [[mesh]]'s material colours the whole mesh)" } else { "" }
         ));
     }
+    warnings.extend(ply.concave.map(|w| format!("{name}: {w}")));
     let faces = ply.indices.len();
     let mesh = Mesh::new(name.clone(), ply.positions, ply.indices, ply.normals, material);
     if mesh.indices.len() < faces {

@@ -8,6 +8,7 @@ mod file;
 pub mod mesh;
 pub mod obj;
 pub mod ply;
+pub mod polygon;
 pub mod shapes;
 pub mod teapot;
 mod values;

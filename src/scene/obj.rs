@@ -7,6 +7,7 @@ use std::str::SplitWhitespace;
 use glam::Vec3;
 
 use super::mesh::Mesh;
+use super::polygon::{self, Concave};
 use crate::error::{Error, Location, Result};
 use crate::material::Material;
 
@@ -27,7 +28,9 @@ pub struct ObjContents {
 pub fn load(path: &Path, material_override: Option<usize>, first_material: usize) -> Result<ObjContents> {
     crate::files::check_regular(path)?;
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    // Polygons come whole: tobj would fan them, wrongly where concave
+    // (`polygon::triangulate`).
+    let options = tobj::LoadOptions { triangulate: false, single_index: true, ..Default::default() };
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mtl_file = std::cell::RefCell::new(None);
     let mtl_error = std::cell::RefCell::new(None);
@@ -73,6 +76,7 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
     };
 
     let mut meshes = Vec::with_capacity(models.len());
+    let mut concave = Concave::default();
     for model in models {
         let m = &model.mesh;
         let positions: Vec<Vec3> = m.positions.chunks_exact(3).map(Vec3::from_slice).collect();
@@ -92,10 +96,10 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
                 ),
             });
         }
-        let indices: Vec<[u32; 3]> = m.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-        if indices.iter().flatten().any(|&i| i as usize >= positions.len()) {
+        if m.indices.iter().any(|&i| i as usize >= positions.len()) {
             return Err(Error::input(path, format!("object `{}` has a face index out of range", model.name)));
         }
+        let indices = triangles(&positions, m, &mut concave);
         let normals = (m.normals.len() == m.positions.len() && !m.normals.is_empty())
             .then(|| m.normals.chunks_exact(3).map(Vec3::from_slice).collect());
         let material = match (material_override, m.material_id) {
@@ -117,21 +121,41 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
         let mesh = Mesh::new(name, positions, indices, normals, material);
         if mesh.indices.len() < faces {
             warnings.push(format!(
-                "object `{}`: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",
+                "{file_name}: object `{}`: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",
                 model.name,
                 faces - mesh.indices.len()
             ));
         }
         meshes.push(mesh);
     }
+    warnings.extend(concave.warning().map(|w| format!("{file_name}: {w}")));
     let short = short_faces(&text);
     if let Some(&first) = short.first() {
         warnings.push(format!(
-            "{} faces with fewer than 3 vertices were left out (the first on line {first})",
+            "{file_name}: {} faces with fewer than 3 vertices were left out (the first on line {first})",
             short.len()
         ));
     }
     Ok(ObjContents { meshes, materials, warnings })
+}
+
+/// The triangles of `mesh`'s faces: triangles as they are, polygons by
+/// [`polygon::triangulate`]; faces of fewer than three corners (points and
+/// lines) are left out ([`short_faces`] reports them).
+fn triangles(positions: &[Vec3], mesh: &tobj::Mesh, concave: &mut Concave) -> Vec<[u32; 3]> {
+    if mesh.face_arities.is_empty() {
+        return mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+    }
+    let mut out = Vec::with_capacity(mesh.indices.len() / 3);
+    let mut start = 0;
+    for &arity in &mesh.face_arities {
+        let corners = &mesh.indices[start..start + arity as usize];
+        start += arity as usize;
+        if corners.len() >= 3 {
+            concave.count(corners.len(), polygon::triangulate(positions, corners, &mut out));
+        }
+    }
+    out
 }
 
 /// Checks what tobj's MTL parser trusts: colour statements (`Ka`, `Kd`,

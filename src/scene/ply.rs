@@ -1,6 +1,7 @@
 //! Stanford PLY meshes: ASCII, binary little-endian and binary big-endian.
 //! Reads vertex positions (`x y z`), normals when present (`nx ny nz`), and
-//! polygon faces (`vertex_indices` or `vertex_index`), fan-triangulated.
+//! polygon faces (`vertex_indices` or `vertex_index`), triangulated by
+//! [`polygon::triangulate`].
 //! Other elements and properties are read past.
 //!
 //! Binary files are the fast way to load big meshes: the vertex block is
@@ -13,6 +14,7 @@ use std::path::Path;
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::polygon::{self, Concave};
 use crate::error::{Error, Location, Result};
 
 /// Most records reserved ahead of reading them: a header's counts could be
@@ -108,8 +110,10 @@ enum Format {
 pub struct PlyMesh {
     /// Vertex positions; one spare slot is allocated after them (for Embree).
     pub positions: Vec<Vec3>,
-    /// Triangles (polygons fan-triangulated).
+    /// Triangles (polygons by [`polygon::triangulate`]).
     pub indices: Vec<[u32; 3]>,
+    /// A warning if concave polygons too large to clip were fanned.
+    pub concave: Option<String>,
     /// Vertex normals, when the file has them.
     pub normals: Option<Vec<Vec3>>,
     /// The vertex properties the file has that are not read (colours,
@@ -128,7 +132,13 @@ pub fn load(path: &Path) -> Result<PlyMesh> {
 pub fn read(path: &Path, mut input: impl BufRead) -> Result<PlyMesh> {
     let (format, elements) = read_header(path, &mut input)?;
     let mut reader = DataReader { path, input, format, tokens: Vec::new(), token: 0 };
-    let mut mesh = PlyMesh { positions: Vec::new(), indices: Vec::new(), normals: None, unread: Vec::new() };
+    let mut mesh = PlyMesh {
+        positions: Vec::new(),
+        indices: Vec::new(),
+        normals: None,
+        unread: Vec::new(),
+        concave: None,
+    };
     let mut vertex_count = None;
     for element in &elements {
         match element.name.as_str() {
@@ -150,10 +160,10 @@ pub fn read(path: &Path, mut input: impl BufRead) -> Result<PlyMesh> {
                 vertex_count = Some(element.count);
             }
             "face" => {
-                let Some(vertices) = vertex_count else {
+                if vertex_count.is_none() {
                     return Err(Error::input(path, "the face element comes before the vertex element"));
-                };
-                mesh.indices = reader.faces(element, vertices)?;
+                }
+                (mesh.indices, mesh.concave) = reader.faces(element, &mesh.positions)?;
             }
             _ => reader.skip(element)?,
         }
@@ -390,7 +400,10 @@ impl<R: BufRead> DataReader<'_, R> {
         Ok((positions, normals))
     }
 
-    fn faces(&mut self, element: &Element, vertex_count: usize) -> Result<Vec<[u32; 3]>> {
+    /// The faces' triangles (see [`polygon::triangulate`]), and a warning
+    /// if concave polygons too large to clip were fanned.
+    fn faces(&mut self, element: &Element, positions: &[Vec3]) -> Result<(Vec<[u32; 3]>, Option<String>)> {
+        let vertex_count = positions.len();
         let Some(list) = element.properties.iter().position(|p| {
             matches!(p, Property::List { .. }) && matches!(p.name(), "vertex_indices" | "vertex_index")
         }) else {
@@ -399,6 +412,8 @@ impl<R: BufRead> DataReader<'_, R> {
         let mut indices = Vec::with_capacity(element.count.min(MAX_RESERVE));
         let mut scalars = vec![0.0; element.properties.len()];
         let mut corners: Vec<f64> = Vec::new();
+        let mut polygon_corners: Vec<u32> = Vec::new();
+        let mut concave = Concave::default();
         for face in 0..element.count {
             self.record(element, face, &mut scalars, Some(list), &mut corners)?;
             if corners.len() < 3 {
@@ -416,11 +431,14 @@ impl<R: BufRead> DataReader<'_, R> {
                     vertex_count.saturating_sub(1)
                 )));
             }
-            for k in 1..corners.len() - 1 {
-                indices.push([corners[0] as u32, corners[k] as u32, corners[k + 1] as u32]);
-            }
+            polygon_corners.clear();
+            polygon_corners.extend(corners.iter().map(|&i| i as u32));
+            concave.count(
+                polygon_corners.len(),
+                polygon::triangulate(positions, &polygon_corners, &mut indices),
+            );
         }
-        Ok(indices)
+        Ok((indices, concave.warning()))
     }
 }
 
