@@ -121,10 +121,29 @@ impl Leaf {
 /// from (its mesh and its index there; 64 bytes with the alignment).
 #[derive(Debug, Clone, Copy)]
 struct BuildItem {
-    bounds: Aabb,
-    centroid: Vec3A,
+    /// The triangle's box, in `Vec3`s: 32 bytes an item where `Aabb` and a
+    /// stored centroid took 64, and the build's passes over the items (two
+    /// a level) are bound by memory.
+    min: Vec3,
+    max: Vec3,
     geom_id: u32,
     prim_id: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<BuildItem>() == 32);
+
+impl BuildItem {
+    #[inline]
+    fn bounds(&self) -> Aabb {
+        Aabb { min: self.min.into(), max: self.max.into() }
+    }
+
+    /// The centre of the box, which the SAH bins sort by.
+    #[inline]
+    fn centroid(&self) -> Vec3A {
+        let b = self.bounds();
+        0.5 * (b.min + b.max)
+    }
 }
 
 /// The binary tree before it is collapsed into nodes of eight.
@@ -212,12 +231,7 @@ impl Bvh {
             items.par_extend((0..mesh.indices().len() as u32).into_par_iter().map(|prim_id| {
                 let t = triangle(geom_id as u32, prim_id);
                 let bounds = Aabb::EMPTY.grow(t.v[0].into()).grow(t.v[1].into()).grow(t.v[2].into());
-                BuildItem {
-                    bounds,
-                    centroid: 0.5 * (bounds.min + bounds.max),
-                    geom_id: geom_id as u32,
-                    prim_id,
-                }
+                BuildItem { min: bounds.min.into(), max: bounds.max.into(), geom_id: geom_id as u32, prim_id }
             }));
         }
         if items.is_empty() {
@@ -629,7 +643,7 @@ impl Span {
     const EMPTY: Span = Span { bounds: Aabb::EMPTY, centroids: Aabb::EMPTY };
 
     fn add(self, item: &BuildItem) -> Span {
-        Span { bounds: self.bounds.union(item.bounds), centroids: self.centroids.grow(item.centroid) }
+        Span { bounds: self.bounds.union(item.bounds()), centroids: self.centroids.grow(item.centroid()) }
     }
 
     fn union(self, other: Span) -> Span {
@@ -665,10 +679,10 @@ fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
     let bins_of = |c: Vec3A| ((c - centroids.min) * scale).as_uvec3().min(UVec3::splat(BINS as u32 - 1));
     let mut bins = [[(Aabb::EMPTY, 0usize); BINS]; 3];
     for item in items.iter() {
-        let bin = bins_of(item.centroid);
+        let bin = bins_of(item.centroid());
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
             let bin = &mut axis_bins[bin[axis] as usize];
-            *bin = (bin.0.union(item.bounds), bin.1 + 1);
+            *bin = (bin.0.union(item.bounds()), bin.1 + 1);
         }
     }
 
@@ -704,7 +718,7 @@ fn build_node(items: &mut [BuildItem], first: usize, span: Span) -> BuildNode {
         return median_split(items, first, bounds);
     };
     let (mid, left_span, right_span) =
-        partition(items, |item| bins_of(item.centroid)[axis] as usize <= split);
+        partition(items, |item| bins_of(item.centroid())[axis] as usize <= split);
     let (left, right) = items.split_at_mut(mid);
     let children = if left.len() + right.len() > PARALLEL_BUILD {
         let (l, r) =
