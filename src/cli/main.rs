@@ -143,11 +143,37 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 fn load(path: &Path) -> anyhow::Result<Scene> {
-    let scene = Scene::load(path)?;
+    let (scene, seconds) = with_spinner(format!("loading {}", path.display()), || Scene::load(path));
+    let scene = scene?;
     for w in &scene.warnings {
         eprintln!("warning: {}: {w}", path.display());
     }
+    if seconds >= SAY_SECONDS {
+        eprintln!("scene: {} triangles loaded in {seconds:.2} s", scene.triangle_count());
+    }
     Ok(scene)
+}
+
+/// Steps before a render that say how long they took when they took this
+/// long (a big mesh's loading and BVH build, seconds before the render's
+/// progress bar starts); a small scene's take a few milliseconds, unsaid.
+const SAY_SECONDS: f64 = 0.5;
+
+/// Runs `work` with a spinner saying `message` on a terminal (nothing
+/// otherwise); its value and the seconds it took.
+fn with_spinner<T>(message: String, work: impl FnOnce() -> T) -> (T, f64) {
+    use std::io::IsTerminal;
+    let spinner = if std::io::stderr().is_terminal() {
+        indicatif::ProgressBar::new_spinner()
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    spinner.set_message(message);
+    spinner.enable_steady_tick(std::time::Duration::from_millis(120));
+    let start = std::time::Instant::now();
+    let value = work();
+    spinner.finish_and_clear();
+    (value, start.elapsed().as_secs_f64())
 }
 
 /// The scene's intersector, as its `[render]` table asks (backend, BVH layout).
@@ -165,11 +191,17 @@ fn pool_and_accel<'s>(
 ) -> anyhow::Result<(rayon::ThreadPool, Box<dyn caustix::accel::Intersector + 's>)> {
     let pool =
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("starting worker threads")?;
-    let accel = pool
-        .install(|| {
-            caustix::accel::build_with_layout(settings.backend, settings.bvh, &scene.triangle_views())
-        })
-        .context("building the ray intersector")?;
+    let triangles = scene.triangle_count();
+    let (accel, seconds) =
+        with_spinner(format!("building the ray intersector over {triangles} triangles"), || {
+            pool.install(|| {
+                caustix::accel::build_with_layout(settings.backend, settings.bvh, &scene.triangle_views())
+            })
+        });
+    let accel = accel.context("building the ray intersector")?;
+    if seconds >= SAY_SECONDS {
+        eprintln!("intersector: {} built over {triangles} triangles in {seconds:.2} s", accel.name());
+    }
     Ok((pool, accel))
 }
 
