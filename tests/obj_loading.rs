@@ -166,3 +166,50 @@ fn concave_faces_become_the_triangles_inside_them() {
         assert!((area - 3.0).abs() < 1e-5, "{file}: the L's area is 3, its triangles' {area}");
     }
 }
+
+/// `caustix info` of a mesh file (the bunny, and the same as a PLY file)
+/// says what a `[[mesh]]` of it holds and prints a scene that frames it:
+/// rendered, the mesh fills a fair part of the image and none of its edge.
+#[test]
+fn info_of_a_mesh_prints_a_scene_that_frames_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let bunny = dir.path().join("bunny.obj");
+    std::fs::copy(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/data/bunny.obj"), &bunny).unwrap();
+    let scene = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"bunny.obj\"\nmaterial = \"white\"\n");
+    let scene = write(dir.path(), "scene.toml", &scene);
+    let ply = dir.path().join("bunny.ply");
+    let run = common::caustix(&["export".as_ref(), scene.as_os_str(), "-o".as_ref(), ply.as_os_str()]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    for (mesh, triangles) in [(&bunny, "3674 triangles"), (&ply, "triangles")] {
+        let run = common::caustix(&["info".as_ref(), mesh.as_os_str()]);
+        let out = String::from_utf8_lossy(&run.stdout);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        assert!(out.contains(triangles) && out.contains("needs a `material"), "{out}");
+        // The whole output is the scene (the rest is comments).
+        let framing = &out[..];
+        // With and without the mesh: the pixels that differ are the mesh's.
+        let name = mesh.file_name().unwrap().to_str().unwrap();
+        let without = framing.split("\n[[mesh]]").next().unwrap();
+        let render = |text: &str| {
+            let scene = Scene::load(&write(dir.path(), "framed.toml", text)).unwrap();
+            let accel =
+                caustix::accel::build(caustix::accel::Backend::Embree, &scene.triangle_views()).unwrap();
+            let config = caustix::RenderConfig {
+                integrator: "normals".parse().unwrap(),
+                width: 48,
+                height: 32,
+                ..scene.config.clone()
+            };
+            caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap().film.beauty()
+        };
+        let (with, without) = (render(framing), render(without));
+        let mesh_at: Vec<bool> = with.pixels.iter().zip(&without.pixels).map(|(a, b)| a != b).collect();
+        let covered = mesh_at.iter().filter(|&&m| m).count();
+        assert!(covered > mesh_at.len() / 8, "{name}: the mesh covers {covered} of {} pixels", mesh_at.len());
+        let on_edge = |i: usize| [0, 47].contains(&(i % 48)) || !(48..48 * 31).contains(&i);
+        assert!(
+            (0..48 * 32).filter(|&i| on_edge(i)).all(|i| !mesh_at[i]),
+            "{name}: the mesh reaches the image's edge"
+        );
+    }
+}

@@ -55,9 +55,11 @@ enum Command {
     /// Assemble tiles (`render --tile I/N`) into the whole image, checking
     /// that they come from one render and cover every pixel once.
     Merge(scale_out::MergeArgs),
-    /// Print what a scene holds: triangles, vertices, bounds, materials, lights.
+    /// Print what a scene holds: triangles, vertices, bounds, materials,
+    /// lights. Given an OBJ or PLY mesh instead: its size and materials, and
+    /// a scene that frames it (`caustix info bunny.obj > bunny.toml`).
     Info {
-        /// The scene file.
+        /// The scene file (or a mesh file).
         scene: PathBuf,
     },
     /// Write the scene's triangles, all meshes in one, as a mesh file:

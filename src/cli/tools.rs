@@ -136,7 +136,11 @@ pub fn denoise(image: &Path, guides: &DenoiseGuides, output: &Path, exposure: f3
 
 pub fn info(path: &Path) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
-    let scene = load(path)?;
+    let scene = match load(path) {
+        Ok(scene) => scene,
+        Err(_) if caustix::scene::is_mesh_file(path) => return mesh_info(path),
+        Err(e) => return Err(e),
+    };
     let load_seconds = start.elapsed().as_secs_f64();
     let b = scene.bounds();
     outln!("scene     {} (loaded in {load_seconds:.2} s)", path.display());
@@ -203,4 +207,81 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// `caustix info` of a mesh file: what a `[[mesh]]` of it would hold, and a
+/// scene that frames it, to paste into a scene file (a new mesh's size and
+/// place are what a camera needs and a user seldom knows).
+fn mesh_info(path: &Path) -> anyhow::Result<()> {
+    let start = std::time::Instant::now();
+    // Without a material of our own first, for the MTL file's; a file whose
+    // faces have none (a PLY file, always) is read again with one.
+    let (contents, needs_material) = match caustix::scene::load_mesh_file(path, None) {
+        Ok(contents) => (contents, false),
+        Err(e) => match caustix::scene::load_mesh_file(path, Some(0)) {
+            Ok(contents) => (contents, true),
+            Err(_) => return Err(e.into()),
+        },
+    };
+    // (Each names its mesh file already.)
+    for w in &contents.warnings {
+        eprintln!("warning: {w}");
+    }
+    let meshes = &contents.meshes;
+    let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
+    let vertices: usize = meshes.iter().map(|m| m.positions.len()).sum();
+    let b = meshes.iter().fold(caustix::bounds::Bounds::EMPTY, |b, m| b.union(m.bounds()));
+    // Every line a TOML comment but the scene's: `caustix info bunny.obj >
+    // bunny.toml` is a scene to render as it is.
+    outln!("# mesh      {} (loaded in {:.2} s)", path.display(), start.elapsed().as_secs_f64());
+    outln!("# geometry  {triangles} triangles, {vertices} vertices in {} meshes", meshes.len());
+    anyhow::ensure!(triangles > 0, "{}: no triangles to show", path.display());
+    outln!("# bounds    {} to {} (size {})", b.min, b.max, b.max - b.min);
+    for m in meshes {
+        outln!("#   mesh    {:<24} {:>9} triangles", m.name, m.indices.len());
+    }
+    if needs_material {
+        outln!("# materials none: its [[mesh]] needs a `material = \"...\"`");
+    } else {
+        outln!("# materials {} (from its MTL file)", contents.materials.len());
+        for m in &contents.materials {
+            outln!("#   {}", m.name);
+        }
+    }
+    let name =
+        path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+    outln!("#\n# A scene that frames it, to save beside {name} as a .toml file and render.\n");
+    out!("{}", framing_scene(b, &name, needs_material));
+    Ok(())
+}
+
+/// Scene text that shows a mesh whose box is `b`: the camera (40 degrees)
+/// back from the box's centre along a view from the front, above and to the
+/// right, far enough that the box's sphere fills the height; a point light
+/// above and in front; a grey floor under the box, four times its size.
+fn framing_scene(b: caustix::bounds::Bounds, file: &str, needs_material: bool) -> String {
+    use glam::Vec3;
+    let centre = 0.5 * (b.min + b.max);
+    let radius = (0.5 * (b.max - b.min).length()).max(f32::MIN_POSITIVE.sqrt());
+    let view = Vec3::new(0.35, 0.45, 1.0).normalize();
+    let eye = centre + view * (1.1 * radius / 20f32.to_radians().tan());
+    let light = centre + radius * Vec3::new(0.8, 2.5, 1.5);
+    // About 1.5 W/m^2 a channel at the box's centre (grey 0.7 then shows at
+    // about a third of white: the default exposure leaves it unclipped).
+    let power = 1.5 * 4.0 * std::f32::consts::PI * (light - centre).length_squared();
+    let point = |p: Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
+    let material = if needs_material { "material = \"grey\"\n" } else { "" };
+    format!(
+        "[camera]\neye = {}\nlook_at = {}\nfov = 40.0\n\n\
+         [materials.grey]\ndiffuse = 0.7\n\n\
+         [[point_light]]\nposition = {}\npower = {power}\n\n\
+         [[quad]]\ncenter = {}\nu = [{}, 0.0, 0.0]\nv = [0.0, 0.0, {}]\nmaterial = \"grey\"\n\n\
+         [[mesh]]\nfile = \"{file}\"\n{material}",
+        point(eye),
+        point(centre),
+        point(light),
+        point(Vec3::new(centre.x, b.min.y, centre.z)),
+        8.0 * radius,
+        -8.0 * radius,
+    )
 }

@@ -434,10 +434,15 @@ fn transform_matrix(t: &file::TransformSection) -> DMat4 {
     DMat4::from_scale_rotation_translation(scale, rotation, t.translate.map_or(DVec3::ZERO, |v| v.0))
 }
 
-/// Meshes from an OBJ or PLY file (by extension). PLY files have no
-/// materials, so their `[[mesh]]` must name one.
-fn load_mesh_file(path: &Path, material: Option<usize>, first_material: usize) -> Result<obj::ObjContents> {
-    let is_ply = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+/// Meshes from an OBJ or PLY file (PLY by its extension or its header,
+/// OBJ otherwise). PLY files have no materials, so their `[[mesh]]` must
+/// name one.
+pub(super) fn load_mesh_file(
+    path: &Path,
+    material: Option<usize>,
+    first_material: usize,
+) -> Result<obj::ObjContents> {
+    let is_ply = super::NotAScene::sniffed(path) == Some(super::NotAScene::Ply);
     if !is_ply {
         return obj::load(path, material, first_material);
     }

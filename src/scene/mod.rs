@@ -82,6 +82,20 @@ impl NotAScene {
     }
 }
 
+/// Whether `path` is a mesh file a `[[mesh]]` reads (OBJ or PLY), by its
+/// name or a PLY header.
+pub fn is_mesh_file(path: &Path) -> bool {
+    matches!(NotAScene::sniffed(path), Some(NotAScene::Obj | NotAScene::Ply))
+}
+
+/// A mesh file read as a `[[mesh]]` reads it (OBJ or PLY, by its name), in
+/// the file's own coordinates: every face of material `material` if given
+/// (a PLY file, which has none, needs one), else of the materials of its MTL
+/// file, numbered from 0.
+pub fn load_mesh_file(path: &Path, material: Option<usize>) -> Result<obj::ObjContents> {
+    build::load_mesh_file(path, material, 0)
+}
+
 /// The error for a file given where a scene file belongs (`caustix render
 /// bunny.obj`, `caustix info image.exr`): what the file is and what to do
 /// with it, instead of what the TOML parser makes of its first line.
