@@ -115,9 +115,13 @@ fn not_a_scene(path: &Path, kind: Option<NotAScene>) -> Option<Error> {
                 }
                 _ => ("a Bezier patch file (.bpt)", format!("`[[teapot]]` with `file = \"{name}\"`")),
             };
+            let start = match kind {
+                NotAScene::Patches => String::new(),
+                _ => format!("; `caustix info {name} > scene.toml` writes one that frames it"),
+            };
             format!(
                 "this is {what}, not a scene: {scene}; name it in one as {entry}, beside a `[camera]` \
-                 and a light (README, \"Scene files\"; `scenes/` has examples)"
+                 and a light (README, \"Scene files\"; `scenes/` has examples){start}"
             )
         }
         NotAScene::Image(format) => format!(
