@@ -108,3 +108,19 @@ fn ply_properties_not_read_and_triangles_left_out_are_warned_about() {
     );
     assert!(plain.warnings.is_empty(), "{:?}", plain.warnings);
 }
+
+/// A PLY file is read as one by its header whatever its name, in a
+/// `[[mesh]]` as where a scene belongs (the error there names it a PLY mesh).
+#[test]
+fn a_ply_file_is_known_by_its_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+               element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+               0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    write(dir.path(), "triangle.dat", ply);
+    let text = SHAPES.split("[[teapot]]").next().unwrap().to_owned()
+        + "[[mesh]]\nfile = \"triangle.dat\"\nmaterial = \"grey\"\n";
+    let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+    assert_eq!(scene.triangle_count(), 1);
+}

@@ -88,10 +88,10 @@ pub fn is_mesh_file(path: &Path) -> bool {
     matches!(NotAScene::sniffed(path), Some(NotAScene::Obj | NotAScene::Ply))
 }
 
-/// A mesh file read as a `[[mesh]]` reads it (OBJ or PLY, by its name), in
-/// the file's own coordinates: every face of material `material` if given
-/// (a PLY file, which has none, needs one), else of the materials of its MTL
-/// file, numbered from 0.
+/// A mesh file read as a `[[mesh]]` reads it (PLY by its name or header,
+/// OBJ otherwise), in the file's own coordinates: every face of material
+/// `material` if given (a PLY file, which has none, needs one), else of the
+/// materials of its MTL file, numbered from 0.
 pub fn load_mesh_file(path: &Path, material: Option<usize>) -> Result<obj::ObjContents> {
     build::load_mesh_file(path, material, 0)
 }
@@ -115,13 +115,13 @@ fn not_a_scene(path: &Path, kind: Option<NotAScene>) -> Option<Error> {
                 }
                 _ => ("a Bezier patch file (.bpt)", format!("`[[teapot]]` with `file = \"{name}\"`")),
             };
-            let start = match kind {
+            let framing = match kind {
                 NotAScene::Patches => String::new(),
                 _ => format!("; `caustix info {name} > scene.toml` writes one that frames it"),
             };
             format!(
                 "this is {what}, not a scene: {scene}; name it in one as {entry}, beside a `[camera]` \
-                 and a light (README, \"Scene files\"; `scenes/` has examples){start}"
+                 and a light (README, \"Scene files\"; `scenes/` has examples){framing}"
             )
         }
         NotAScene::Image(format) => format!(
