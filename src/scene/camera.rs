@@ -34,11 +34,14 @@ impl Camera {
                         bring look_at nearer along the same line"
                 .to_string());
         }
-        // Scaled to its largest component first: the squared length of a
-        // vector longer than about 1.8e19 overflows, and a look_at far off
-        // along the view is a fair way to give a direction.
-        let w = (to_eye / to_eye.abs().max_element())
+        // Where the squared length overflows (a vector longer than about
+        // 1.8e19: a look_at far off along the view is a fair way to give a
+        // direction), scaled to its largest component first. (Always
+        // scaling would move every camera's basis by a rounding, and so
+        // every image.)
+        let w = to_eye
             .try_normalize()
+            .or_else(|| (to_eye / to_eye.abs().max_element()).try_normalize())
             .ok_or("the camera's eye and look_at are the same point; move one of them")?;
         let u = up.cross(w).try_normalize().ok_or(
             "the camera's up vector is zero or parallel to the viewing direction; choose an up that is not",
