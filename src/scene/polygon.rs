@@ -253,6 +253,31 @@ mod tests {
         assert!((total - expected).abs() < 1e-2 * expected, "{total} vs {expected}");
     }
 
+    /// A concave polygon of more corners than are clipped is fanned, and
+    /// the file's warning counts it.
+    #[test]
+    fn a_huge_concave_polygon_is_fanned_with_a_warning() {
+        // A saw: teeth along x, then back along the bottom.
+        let teeth = MOST_CLIPPED_CORNERS / 2;
+        let mut saw: Vec<Vec3> = (0..2 * teeth)
+            .map(|i| Vec3::new(i as f32 * 0.5, if i % 2 == 0 { 0.0 } else { 1.0 }, 0.0))
+            .collect();
+        saw.push(Vec3::new(teeth as f32, -1.0, 0.0));
+        saw.push(Vec3::new(0.0, -1.0, 0.0));
+        let ids: Vec<u32> = (0..saw.len() as u32).collect();
+        let mut out = Vec::new();
+        let how = triangulate(&saw, &ids, &mut out);
+        assert_eq!((how, out.len()), (Triangulated::FanOfConcave, saw.len() - 2));
+        let mut concave = Concave::default();
+        assert_eq!(concave.warning(), None);
+        concave.count(saw.len(), how);
+        concave.count(4, Triangulated::Ears);
+        let warning = concave.warning().unwrap();
+        assert!(
+            warning.starts_with("1 concave polygons") && warning.contains(&format!("largest {}", saw.len()))
+        );
+    }
+
     /// A polygon with no area, or one that crosses itself, still gives every
     /// corner a triangle and never loops.
     #[test]
