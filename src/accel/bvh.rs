@@ -117,8 +117,8 @@ impl Leaf {
     }
 }
 
-/// A triangle during the build: its bounds, centroid, and where it came
-/// from (its mesh and its index there; 64 bytes with the alignment).
+/// A triangle during the build: its bounds, and where it came from (its
+/// mesh and its index there); 32 bytes.
 #[derive(Debug, Clone, Copy)]
 struct BuildItem {
     /// The triangle's box, in `Vec3`s: 32 bytes an item where `Aabb` and a
