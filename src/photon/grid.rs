@@ -109,40 +109,48 @@ impl Grid {
     /// finite or the coordinates are too many cells from the origin for
     /// rounding to leave each point in its cell or the next.
     pub(super) fn new(positions: &[Vec3], radius: f32) -> Option<Grid> {
-        let photons: Vec<(Vec3, u32)> = positions.iter().zip(0..).map(|(&p, i)| (p, i)).collect();
-        Grid::level(&photons, radius, 0, FINER_PHOTONS * photons.len())
+        Grid::level(positions, None, radius, 0, FINER_PHOTONS * positions.len())
     }
 
-    /// [`Grid::new`] over `photons` (positions and indices), the grid
-    /// `levels` below the first, with finer grids below it of at most
-    /// `budget` photons in all.
-    fn level(photons: &[(Vec3, u32)], radius: f32, levels: usize, budget: usize) -> Option<Grid> {
+    /// [`Grid::new`] over `positions`, whose photons' indices are
+    /// `indices` (`None`: their places in `positions`), the grid `levels`
+    /// below the first, with finer grids below it of at most `budget`
+    /// photons in all.
+    fn level(
+        positions: &[Vec3],
+        indices: Option<&[u32]>,
+        radius: f32,
+        levels: usize,
+        budget: usize,
+    ) -> Option<Grid> {
         let edge = radius * EDGE_PER_RADIUS;
-        if photons.is_empty() || !(edge.is_finite() && edge > 0.0) || photons.len() >= u32::MAX as usize {
+        if positions.is_empty() || !(edge.is_finite() && edge > 0.0) || positions.len() >= u32::MAX as usize {
             return None;
         }
-        let positions: Vec<Vec3> = photons.iter().map(|&(p, _)| p).collect();
-        let Bounds { min: lo, max: hi } = Bounds::of(&positions);
+        let Bounds { min: lo, max: hi } = Bounds::of(positions);
         let origin = lo - Vec3::splat(2.0 * edge);
         let reach = origin.abs().max(hi.abs() + Vec3::splat(2.0 * edge)).max_element() / edge;
         if reach.is_nan() || reach >= AXIS_CELLS {
             return None;
         }
         let inverse_edge = 1.0 / edge;
-        let keyed = points_by_cell(&positions, origin, inverse_edge);
+        let keyed = points_by_cell(positions, origin, inverse_edge);
         let cells: Vec<&[(u64, u32)]> = keyed.chunk_by(|a, b| a.0 == b.0).collect();
         let mut ranges = Vec::with_capacity(cells.len());
-        let mut in_cells = Vec::with_capacity(photons.len());
+        let mut in_cells = Vec::with_capacity(positions.len());
+        let index = |i: u32| indices.map_or(i, |indices| indices[i as usize]);
         for cell in cells {
             ranges.push((cell[0].0, in_cells.len() as u32, cell.len() as u32));
-            in_cells.extend(cell.iter().map(|&(_, i)| photons[i as usize]));
+            in_cells.extend(cell.iter().map(|&(_, i)| (positions[i as usize], index(i))));
         }
         let table = CellTable::new(&ranges);
         let occupied = Occupied::new(ranges.iter().map(|&(key, ..)| unkey(key)));
         let finer = (levels < MOST_FINER)
             .then(|| near_dense_cells(&ranges, &table, &in_cells))
-            .filter(|near| !near.is_empty() && near.len() <= budget)
-            .and_then(|near| Grid::level(&near, radius * FINER_RADIUS, levels + 1, budget - near.len()))
+            .filter(|(near, _)| !near.is_empty() && near.len() <= budget)
+            .and_then(|(near, indices)| {
+                Grid::level(&near, Some(&indices), radius * FINER_RADIUS, levels + 1, budget - near.len())
+            })
             .map(Box::new);
         Some(Grid { origin, radius, inverse_edge, table, photons: in_cells, occupied, finer })
     }
@@ -292,7 +300,8 @@ impl Grid {
 
 /// The photons a finer grid needs, of a grid whose cells are `ranges`
 /// (key, start, length) in `table` over `photons`: those in the cells from
-/// which a query can go to the finer grid; none when no query can.
+/// which a query can go to the finer grid (their positions, and their
+/// indices); none when no query can.
 ///
 /// A query's ball of this grid's radius reaches its own cell and one more
 /// along each axis (`REACH`; along an axis where it is within a hundredth
@@ -310,7 +319,7 @@ fn near_dense_cells(
     ranges: &[(u64, u32, u32)],
     table: &CellTable,
     photons: &[(Vec3, u32)],
-) -> Vec<(Vec3, u32)> {
+) -> (Vec<Vec3>, Vec<u32>) {
     use std::collections::HashSet;
     let around = |cell: IVec3| {
         (-1..=1)
@@ -335,7 +344,7 @@ fn near_dense_cells(
         .filter(|(cell, ..)| keep.contains(cell))
         .flat_map(|&(_, start, len)| &photons[start as usize..][..len as usize])
         .copied()
-        .collect()
+        .unzip()
 }
 
 /// A bit for each cell of the box from cell 0 to the last occupied one
