@@ -241,3 +241,18 @@ fn cli_reports_errors_without_panicking() {
     ]);
     assert_eq!(run.status.code(), Some(1), "{}", String::from_utf8_lossy(&run.stderr));
 }
+
+/// A mesh file without a triangle (vertices only, or faces without area)
+/// is said, not silently dropped; when it was the scene's only geometry the
+/// error says why there is none.
+#[test]
+fn a_mesh_file_without_triangles_is_said() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    let mesh = "[[mesh]]\nfile = \"points.obj\"\nmaterial = \"white\"\n";
+    let scene = Scene::load(&write(dir.path(), "s.toml", &format!("{QUAD_SCENE}\n{mesh}"))).unwrap();
+    assert!(scene.warnings.iter().any(|w| w.contains("points.obj: no triangles")), "{:?}", scene.warnings);
+    let alone = format!("{}{mesh}", &QUAD_SCENE[..QUAD_SCENE.find("[[quad]]").unwrap()]);
+    let err = Scene::load(&write(dir.path(), "s.toml", &alone)).unwrap_err().to_string();
+    assert!(err.contains("no geometry") && err.contains("points.obj: no triangles"), "{err}");
+}

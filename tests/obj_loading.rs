@@ -213,3 +213,81 @@ fn info_of_a_mesh_prints_a_scene_that_frames_it() {
         );
     }
 }
+
+/// Faces an OBJ file gives no material (before its first `usemtl`, or
+/// after a `usemtl` its MTL file does not define) are an error that says
+/// which and where; the `[[mesh]]`'s `default_material` gives them one,
+/// while the other faces keep the MTL file's. `material` and
+/// `default_material` together are an error (the default would never be
+/// used), and `caustix info` writes the key the file needs.
+#[test]
+fn faces_without_a_material_take_the_meshes_default() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "one.mtl", "newmtl matte\nKd 0.5 0.25 0.125\n");
+    let before =
+        "mtllib one.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\no first\nf 1 2 3\no second\nusemtl matte\nf 1 3 2\n";
+    let unknown = "mtllib one.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\no first\nusemtl shiny\nf 1 2 3\no second\nusemtl matte\nf 1 3 2\n";
+    for (file, text, says) in [
+        ("before.obj", before, "faces from line 6 come before the first `usemtl` (line 8)"),
+        (
+            "unknown.obj",
+            unknown,
+            "`usemtl shiny` on line 6 names no material of its MTL files (they define matte)",
+        ),
+    ] {
+        write(dir.path(), file, text);
+        let scene = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"{file}\"\n");
+        let err = Scene::load(&write(dir.path(), "s.toml", &scene)).unwrap_err().to_string();
+        assert!(
+            err.contains(file) && err.contains("object `first` has no material") && err.contains(says),
+            "{err}"
+        );
+        assert!(err.contains("default_material"), "{err}");
+
+        let scene =
+            Scene::load(&write(dir.path(), "s.toml", &format!("{scene}default_material = \"white\"\n")))
+                .unwrap();
+        let material_of = |object: &str| {
+            let mesh = scene.meshes.iter().find(|m| m.name == format!("{file}:{object}")).unwrap();
+            scene.materials[mesh.material].name.clone()
+        };
+        assert_eq!((material_of("first"), material_of("second")), ("white".into(), format!("{file}:matte")));
+
+        let run = common::caustix(&["info".as_ref(), dir.path().join(file).as_os_str()]);
+        let out = String::from_utf8_lossy(&run.stdout);
+        assert!(out.contains(&format!("none for {file}:first")), "{out}");
+        assert!(out.ends_with("default_material = \"grey\"\n"), "{out}");
+    }
+    let both = format!(
+        "{QUAD_SCENE}\n[[mesh]]\nfile = \"before.obj\"\nmaterial = \"white\"\ndefault_material = \"white\"\n"
+    );
+    let err = Scene::load(&write(dir.path(), "s.toml", &both)).unwrap_err().to_string();
+    let line = both.lines().position(|l| l.starts_with("default_material")).unwrap() + 1;
+    assert!(err.contains(&format!("s.toml:{line}:")) && err.contains("would never be used"), "{err}");
+}
+
+/// What some exporters write loads as the OBJ format means it: a byte
+/// order mark before the first statement, a statement continued over lines
+/// by a `\` (later errors keep their lines; a comment's `\` continues
+/// nothing), and `mtllib` naming two files.
+#[test]
+fn byte_order_marks_continued_lines_and_two_mtl_files_on_a_line() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "a.mtl", "\u{feff}newmtl red\nKd 0.8 0 0\n");
+    write(dir.path(), "b.mtl", "newmtl green\nKd 0 0.8 0\n");
+    let obj = "\u{feff}mtllib a.mtl b.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n\
+               o one\nusemtl red\nf 1 2 \\\n 3\n# C:\\models\\\no two\nusemtl green\nf 2 \\\r\n 4 \\\n 3\n";
+    write(dir.path(), "odd.obj", obj);
+    let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"odd.obj\"\n");
+    let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+    let mesh = |object: &str| scene.meshes.iter().find(|m| m.name == format!("odd.obj:{object}")).unwrap();
+    assert_eq!(mesh("one").indices.len(), 1);
+    assert_eq!(mesh("two").indices.len(), 1);
+    assert_eq!(scene.materials[mesh("one").material].diffuse, Vec3::new(0.8, 0.0, 0.0));
+    assert_eq!(scene.materials[mesh("two").material].diffuse, Vec3::new(0.0, 0.8, 0.0));
+
+    // A bad face after the continued ones is named on its own line (16).
+    write(dir.path(), "odd.obj", &format!("{obj}f 1 2 9\n"));
+    let err = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap_err().to_string();
+    assert!(err.contains("odd.obj:16:") && err.contains("vertex 9 does not exist"), "{err}");
+}

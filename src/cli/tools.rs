@@ -214,15 +214,10 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
 /// place are what a camera needs and a user seldom knows).
 fn mesh_info(path: &Path) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
-    // Without a material of our own first, for the MTL file's; a file whose
-    // faces have none (a PLY file, always) is read again with one.
-    let (contents, needs_material) = match caustix::scene::load_mesh_file(path, None) {
-        Ok(contents) => (contents, false),
-        Err(e) => match caustix::scene::load_mesh_file(path, Some(0)) {
-            Ok(contents) => (contents, true),
-            Err(_) => return Err(e.into()),
-        },
-    };
+    // The MTL files' materials, and a fallback for faces they leave without
+    // one (a PLY file's, always); only which meshes took it is read here.
+    let choice = caustix::scene::obj::MeshMaterials::FromFile { fallback: Some(0) };
+    let contents = caustix::scene::load_mesh_file(path, choice)?;
     // (Each names its mesh file already.)
     for w in &contents.warnings {
         eprintln!("warning: {w}");
@@ -240,26 +235,38 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
     for m in meshes {
         outln!("#   mesh    {:<24} {:>9} triangles", m.name, m.indices.len());
     }
-    if needs_material {
+    // Which key the [[mesh]] needs, if any.
+    let needs = if contents.defaulted.is_empty() {
+        None
+    } else if contents.materials.is_empty() {
         outln!("# materials none: its [[mesh]] needs a `material = \"...\"`");
+        Some("material")
     } else {
-        outln!("# materials {} (from its MTL file)", contents.materials.len());
+        Some("default_material")
+    };
+    if !contents.materials.is_empty() {
+        outln!("# materials {} (from its MTL files)", contents.materials.len());
         for m in &contents.materials {
             outln!("#   {}", m.name);
         }
     }
+    if needs == Some("default_material") {
+        let meshes = contents.defaulted.join(", ");
+        outln!("#   none for {meshes}: its [[mesh]] needs a `default_material = \"...\"`");
+    }
     let name =
         path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
     outln!("#\n# A scene that frames it, to save beside {name} as a .toml file and render.\n");
-    out!("{}", framing_scene(b, &name, needs_material));
+    out!("{}", framing_scene(b, &name, needs));
     Ok(())
 }
 
 /// Scene text that shows a mesh whose box is `b`: the camera (40 degrees)
 /// back from the box's centre along a view from the front, above and to the
 /// right, far enough that the box's sphere fills the height; a point light
-/// above and in front; a grey floor under the box, four times its size.
-fn framing_scene(b: caustix::bounds::Bounds, file: &str, needs_material: bool) -> String {
+/// above and in front; a grey floor under the box, four times its size;
+/// the grey as the mesh's `needs` key (`material`, `default_material`) if any.
+fn framing_scene(b: caustix::bounds::Bounds, file: &str, needs: Option<&str>) -> String {
     use glam::Vec3;
     let centre = 0.5 * (b.min + b.max);
     let radius = (0.5 * (b.max - b.min).length()).max(f32::MIN_POSITIVE.sqrt());
@@ -270,7 +277,7 @@ fn framing_scene(b: caustix::bounds::Bounds, file: &str, needs_material: bool) -
     // about a third of white: the default exposure leaves it unclipped).
     let power = 1.5 * 4.0 * std::f32::consts::PI * (light - centre).length_squared();
     let point = |p: Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
-    let material = if needs_material { "material = \"grey\"\n" } else { "" };
+    let material = needs.map_or_else(String::new, |key| format!("{key} = \"grey\"\n"));
     format!(
         "[camera]\neye = {}\nlook_at = {}\nfov = 40.0\n\n\
          [materials.grey]\ndiffuse = 0.7\n\n\

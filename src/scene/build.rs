@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat4, DQuat, DVec3, EulerRot, Vec3};
 use toml::Spanned;
 
+use super::obj::MeshMaterials;
 use super::values::Position;
 use super::{file, obj, ply, shapes, teapot, Camera, Mesh, Overrides, Scene};
 use crate::config::limits::{MAX_DISTANCE, MIN_EXTENT};
@@ -59,9 +60,14 @@ impl Builder<'_> {
 
         let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
         if triangles == 0 {
+            // What the mesh files said: one may be why there is nothing.
+            let said = self.warnings.iter().map(|w| format!("; {w}")).collect::<String>();
             return Err(Error::input(
                 self.path,
-                "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[ring]], [[teapot]] or [[mesh]]",
+                format!(
+                    "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[ring]], [[teapot]] \
+                     or [[mesh]]{said}"
+                ),
             ));
         }
         // One pass over the vertices: each mesh's farthest coordinate from the
@@ -343,8 +349,20 @@ impl Builder<'_> {
         let mut obj_warnings = Vec::new();
         for m in &f.mesh {
             let obj_path = self.relative(m.file.get_ref());
-            let material = m.material.as_ref().map(lookup).transpose()?;
-            let contents = load_mesh_file(&obj_path, material, materials.len()).map_err(|e| match e {
+            let choice = match (&m.material, &m.default_material) {
+                (Some(_), Some(fallback)) => {
+                    return Err(self.error_at(
+                        fallback.span(),
+                        "this [[mesh]] has a `material` for every face: `default_material` (for the \
+                         faces its file gives none) would never be used; keep one of them",
+                    ))
+                }
+                (Some(all), None) => MeshMaterials::All(lookup(all)?),
+                (None, fallback) => {
+                    MeshMaterials::FromFile { fallback: fallback.as_ref().map(lookup).transpose()? }
+                }
+            };
+            let contents = load_mesh_file(&obj_path, choice, materials.len()).map_err(|e| match e {
                 Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self.error_at(
                     m.file.span(),
                     format!(
@@ -356,6 +374,13 @@ impl Builder<'_> {
             })?;
             materials.extend(contents.materials);
             obj_warnings.extend(contents.warnings);
+            if contents.meshes.iter().all(|mesh| mesh.indices.is_empty()) {
+                obj_warnings.push(format!(
+                    "{}: no triangles (no face of three or more corners with an area): this [[mesh]] \
+                     adds nothing to the scene",
+                    obj_path.display()
+                ));
+            }
             let matrix = transform_matrix(&m.transform);
             for mut mesh in contents.meshes {
                 mesh.place(&matrix, self.origin);
@@ -439,16 +464,23 @@ fn transform_matrix(t: &file::TransformSection) -> DMat4 {
 /// name one.
 pub(super) fn load_mesh_file(
     path: &Path,
-    material: Option<usize>,
+    choice: MeshMaterials,
     first_material: usize,
 ) -> Result<obj::ObjContents> {
     let is_ply = super::NotAScene::sniffed(path) == Some(super::NotAScene::Ply);
     if !is_ply {
-        return obj::load(path, material, first_material);
+        return obj::load(path, choice, first_material);
     }
-    let material = material.ok_or_else(|| {
-        Error::input(path, "PLY files carry no materials; give the [[mesh]] a `material = \"...\"`")
-    })?;
+    let (material, defaulted) = match choice {
+        MeshMaterials::All(id) => (id, false),
+        MeshMaterials::FromFile { fallback: Some(id) } => (id, true),
+        MeshMaterials::FromFile { fallback: None } => {
+            return Err(Error::input(
+                path,
+                "PLY files carry no materials; give the [[mesh]] a `material = \"...\"`",
+            ))
+        }
+    };
     let ply = ply::load(path)?;
     let name = path.file_name().map_or_else(|| "ply".into(), |n| n.to_string_lossy().into_owned());
     let mut warnings = Vec::new();
@@ -470,7 +502,8 @@ pub(super) fn load_mesh_file(
             faces - mesh.indices.len()
         ));
     }
-    Ok(obj::ObjContents { meshes: vec![mesh], materials: Vec::new(), warnings })
+    let defaulted = if defaulted { vec![mesh.name.clone()] } else { Vec::new() };
+    Ok(obj::ObjContents { meshes: vec![mesh], materials: Vec::new(), warnings, defaulted })
 }
 
 #[cfg(test)]

@@ -440,6 +440,9 @@ pub struct MeshSection {
     /// Overrides the file's MTL materials for every face.
     #[serde(default)]
     pub material: Option<Spanned<String>>,
+    /// The material of faces the file gives none (and of a PLY file's).
+    #[serde(default)]
+    pub default_material: Option<Spanned<String>>,
     #[serde(default)]
     pub transform: TransformSection,
 }

@@ -89,11 +89,11 @@ pub fn is_mesh_file(path: &Path) -> bool {
 }
 
 /// A mesh file read as a `[[mesh]]` reads it (PLY by its name or header,
-/// OBJ otherwise), in the file's own coordinates: every face of material
-/// `material` if given (a PLY file, which has none, needs one), else of the
-/// materials of its MTL file, numbered from 0.
-pub fn load_mesh_file(path: &Path, material: Option<usize>) -> Result<obj::ObjContents> {
-    build::load_mesh_file(path, material, 0)
+/// OBJ otherwise), in the file's own coordinates, its faces' materials
+/// chosen by `choice` (a PLY file, which has none, needs one given); the
+/// materials of its MTL files are numbered from 0.
+pub fn load_mesh_file(path: &Path, choice: obj::MeshMaterials) -> Result<obj::ObjContents> {
+    build::load_mesh_file(path, choice, 0)
 }
 
 /// The error for a file given where a scene file belongs (`caustix render

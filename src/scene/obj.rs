@@ -1,5 +1,6 @@
 //! Wavefront OBJ meshes through `tobj`, with MTL materials mapped onto ours.
 
+use std::borrow::Cow;
 use std::io::BufReader;
 use std::path::Path;
 use std::str::SplitWhitespace;
@@ -11,6 +12,30 @@ use super::polygon::{self, Concave};
 use crate::error::{Error, Location, Result};
 use crate::material::Material;
 
+/// Which materials a mesh file's faces take.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MeshMaterials {
+    /// This one (a scene material's index) on every face, whatever the file says.
+    All(usize),
+    /// The file's own (MTL) materials.
+    FromFile {
+        /// The material of faces the file gives none (before its first
+        /// `usemtl`, or after one naming a material its MTL files lack);
+        /// without one such faces are an error.
+        fallback: Option<usize>,
+    },
+}
+
+impl MeshMaterials {
+    /// The material every face takes, if one does.
+    fn all(self) -> Option<usize> {
+        match self {
+            MeshMaterials::All(id) => Some(id),
+            MeshMaterials::FromFile { .. } => None,
+        }
+    }
+}
+
 /// Meshes read from an OBJ file, and the materials its MTL file defined.
 pub struct ObjContents {
     /// One mesh per OBJ object/group; `material` indexes into `materials`
@@ -20,14 +45,19 @@ pub struct ObjContents {
     pub materials: Vec<Material>,
     /// Things the user should know (e.g. MTL colours rescaled to conserve energy).
     pub warnings: Vec<String>,
+    /// The meshes (by name) whose faces the file gives no material, which
+    /// took [`MeshMaterials::FromFile`]'s fallback.
+    pub defaulted: Vec<String>,
 }
 
-/// Loads `path`. Faces use `material_override` if given, otherwise their MTL
-/// material, numbered from `first_material` (where the caller will append
-/// `materials`).
-pub fn load(path: &Path, material_override: Option<usize>, first_material: usize) -> Result<ObjContents> {
+/// Loads `path`, its faces' materials chosen by `choice`; the file's MTL
+/// materials are numbered from `first_material` (where the caller will
+/// append `materials`).
+pub fn load(path: &Path, choice: MeshMaterials, first_material: usize) -> Result<ObjContents> {
     crate::files::check_regular(path)?;
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = logical_lines(&text);
+    let material_override = choice.all();
     // Polygons come whole: tobj would fan them, wrongly where concave
     // (`polygon::triangulate`).
     let options = tobj::LoadOptions { triangulate: false, single_index: true, ..Default::default() };
@@ -35,15 +65,26 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
     let mtl_file = std::cell::RefCell::new(None);
     let mtl_error = std::cell::RefCell::new(None);
     let (models, mtl) = tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &options, |mtl_path| {
-        let file = dir.join(mtl_path);
-        *mtl_file.borrow_mut() = Some(file.clone());
-        let mtl_text = crate::files::read_text(&file, crate::files::MAX_TEXT_BYTES)
-            .and_then(|t| check_mtl(&file, &t).map(|()| t))
-            .map_err(|e| {
-                *mtl_error.borrow_mut() = Some(e.to_string());
-                tobj::LoadError::MaterialParseError
-            })?;
-        tobj::load_mtl_buf(&mut BufReader::new(mtl_text.as_bytes()))
+        let mut merged: tobj::MTLLoadResult = Ok(Default::default());
+        for file in mtl_files(&dir, mtl_path) {
+            *mtl_file.borrow_mut() = Some(file.clone());
+            let mtl_text = crate::files::read_text(&file, crate::files::MAX_TEXT_BYTES)
+                .map(|t| without_bom(&t).to_string())
+                .and_then(|t| check_mtl(&file, &t).map(|()| t))
+                .map_err(|e| {
+                    *mtl_error.borrow_mut() = Some(e.to_string());
+                    tobj::LoadError::MaterialParseError
+                })?;
+            // As tobj merges the files of several `mtllib` lines: a later
+            // file's material of the same name wins.
+            let (list, names) = tobj::load_mtl_buf(&mut BufReader::new(mtl_text.as_bytes()))?;
+            if let Ok((all, all_names)) = &mut merged {
+                let offset = all.len();
+                all.extend(list);
+                all_names.extend(names.into_iter().map(|(name, i)| (name, i + offset)));
+            }
+        }
+        merged
     })
     .map_err(|e| {
         let (location, detail) = match locate_problem(&text) {
@@ -57,25 +98,35 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
     let mut warnings = Vec::new();
     // What went wrong with the MTL file, said wherever a material is missing.
     let mtl_problem = match (&mtl, mtl_error.borrow().as_ref(), mtl_file.borrow().as_ref()) {
-        (Err(_), Some(ours), _) => format!(" ({ours})"),
-        (Err(e), None, Some(file)) => format!(" (its MTL file `{}` could not be read: {e})", file.display()),
-        _ => String::new(),
+        (Err(_), Some(ours), _) => Some(ours.clone()),
+        (Err(e), None, Some(file)) => {
+            Some(format!("its MTL file `{}` could not be read: {e}", file.display()))
+        }
+        _ => None,
     };
+    let fallback = match choice {
+        MeshMaterials::All(_) => None,
+        MeshMaterials::FromFile { fallback } => fallback,
+    };
+    let mut mtl_names = Vec::new();
     let materials = match (mtl, material_override) {
         (_, Some(_)) => Vec::new(),
         (Ok(list), None) => {
+            mtl_names.extend(list.iter().map(|m| m.name.clone()));
             warnings.extend(unread_mtl_features(&list, &file_name));
             list.iter().map(|m| convert_material(m, &file_name, &mut warnings)).collect()
         }
         (Err(_), None) => {
             if models.iter().any(|m| m.mesh.material_id.is_some()) {
-                return Err(Error::input(path, format!("cannot read its materials{mtl_problem}")));
+                let why = mtl_problem.map_or_else(String::new, |p| format!(" ({p})"));
+                return Err(Error::input(path, format!("cannot read its materials{why}")));
             }
             Vec::new()
         }
     };
 
     let mut meshes = Vec::with_capacity(models.len());
+    let mut defaulted = Vec::new();
     let mut concave = Concave::default();
     for model in models {
         let m = &model.mesh;
@@ -102,21 +153,19 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
         let indices = triangles(&positions, m, &mut concave);
         let normals = (m.normals.len() == m.positions.len() && !m.normals.is_empty())
             .then(|| m.normals.chunks_exact(3).map(Vec3::from_slice).collect());
-        let material = match (material_override, m.material_id) {
-            (Some(id), _) => id,
-            (None, Some(id)) if id < materials.len() => first_material + id,
-            (None, _) => {
-                return Err(Error::input(
-                    path,
-                    format!(
-                        "object `{}` has no material in the file{mtl_problem}; give the [[mesh]] a \
-                         `material = \"...\"`",
-                        model.name
-                    ),
-                ))
+        let name = format!("{file_name}:{}", model.name);
+        let material = match (material_override, m.material_id, fallback) {
+            (Some(id), _, _) => id,
+            (None, Some(id), _) if id < materials.len() => first_material + id,
+            (None, _, Some(id)) => {
+                defaulted.push(name.clone());
+                id
+            }
+            (None, _, None) => {
+                let why = why_no_material(&text, &mtl_names, mtl_problem.as_deref());
+                return Err(Error::input(path, format!("object `{}` has no material: {why}", model.name)));
             }
         };
-        let name = format!("{file_name}:{}", model.name);
         let faces = indices.len();
         let mesh = Mesh::new(name, positions, indices, normals, material);
         if mesh.indices.len() < faces {
@@ -136,7 +185,7 @@ pub fn load(path: &Path, material_override: Option<usize>, first_material: usize
             short.len()
         ));
     }
-    Ok(ObjContents { meshes, materials, warnings })
+    Ok(ObjContents { meshes, materials, warnings, defaulted })
 }
 
 /// The triangles of `mesh`'s faces: triangles as they are, polygons by
@@ -156,6 +205,95 @@ fn triangles(positions: &[Vec3], mesh: &tobj::Mesh, concave: &mut Concave) -> Ve
         }
     }
     out
+}
+
+/// `text` without a leading byte order mark (some Windows tools write one;
+/// the OBJ and MTL keywords after it would not be recognised).
+fn without_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
+/// `text` as tobj should read it: without a byte order mark, and with each
+/// statement continued over several lines (a `\\` ending a line, as the
+/// OBJ format allows) joined onto its first line. The lines a statement
+/// took follow it empty, so every later statement keeps its line number
+/// for error messages.
+fn logical_lines(text: &str) -> Cow<'_, str> {
+    let text = without_bom(text);
+    if !text.contains("\\\n") && !text.contains("\\\r\n") {
+        return Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len());
+    let mut joined = 0;
+    for line in text.lines() {
+        // (Not a comment's: a Windows path ending one would swallow the
+        // statement after it.)
+        match line.strip_suffix('\\').filter(|_| !line.trim_start().starts_with('#')) {
+            Some(head) => {
+                out.push_str(head);
+                out.push(' ');
+                joined += 1;
+            }
+            None => {
+                out.push_str(line);
+                out.push('\n');
+                out.extend(std::iter::repeat_n('\n', joined));
+                joined = 0;
+            }
+        }
+    }
+    out.extend(std::iter::repeat_n('\n', joined));
+    Cow::Owned(out)
+}
+
+/// Why faces of an OBJ file (its `text`, whose MTL files define
+/// `mtl_names`; `mtl_problem` says what went wrong reading them) have no
+/// material, and what to give the `[[mesh]]`: a `usemtl` naming a material
+/// the MTL files lack, or faces before the first `usemtl`, or no `usemtl`
+/// at all.
+fn why_no_material(text: &str, mtl_names: &[String], mtl_problem: Option<&str>) -> String {
+    // The name as tobj reads it: all after the keyword's first space.
+    let uses = || {
+        text.lines()
+            .enumerate()
+            .filter(|(_, line)| line.split_whitespace().next() == Some("usemtl"))
+            .map(|(i, line)| (i + 1, line.split_once(' ').map_or("", |(_, name)| name.trim())))
+    };
+    let unknown = uses().find(|(_, name)| !mtl_names.iter().any(|n| n == name));
+    let first_use = uses().next().map(|(line, _)| line);
+    let first_face = statements(text, "f").next().map(|(line, _)| line);
+    let either = "give the [[mesh]] `default_material = \"...\"` for the faces the file gives none, \
+                  or `material = \"...\"` for every face";
+    match (unknown, first_use, first_face) {
+        (Some((line, name)), _, _) => {
+            let defined = match mtl_names.len() {
+                0 => match mtl_problem {
+                    Some(problem) => format!("they were not read: {problem}"),
+                    None => "they define none".to_string(),
+                },
+                n if n <= 8 => format!("they define {}", mtl_names.join(", ")),
+                n => format!("they define {n}, among them {}", mtl_names[..8].join(", ")),
+            };
+            format!("`usemtl {name}` on line {line} names no material of its MTL files ({defined}); {either}")
+        }
+        (None, Some(used), Some(face)) if face < used => {
+            format!("its faces from line {face} come before the first `usemtl` (line {used}); {either}")
+        }
+        _ => "the file names none (it has no `usemtl`); give the [[mesh]] a `material = \"...\"`".to_string(),
+    }
+}
+
+/// The MTL files an `mtllib` statement names, in `dir`: the name as a
+/// whole where such a file exists (names may hold spaces, and tobj reads
+/// them so), else each word of it (the OBJ format lets one statement name
+/// several files).
+fn mtl_files(dir: &Path, named: &Path) -> Vec<std::path::PathBuf> {
+    let whole = dir.join(named);
+    let words: Vec<&str> = named.to_str().map_or_else(Vec::new, |n| n.split_whitespace().collect());
+    if whole.exists() || words.len() < 2 {
+        return vec![whole];
+    }
+    words.into_iter().map(|w| dir.join(w)).collect()
 }
 
 /// Checks what tobj's MTL parser trusts: colour statements (`Ka`, `Kd`,
@@ -403,11 +541,11 @@ mod tests {
         let path = dir.path().join("bad.obj");
         let text = "# a comment\nv 0 0 0\nv 1 0 0 # a comment\nv nan 1 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\n";
         std::fs::write(&path, text).unwrap();
-        let message = load(&path, Some(0), 0).err().expect("a NaN vertex in use").to_string();
+        let message = load(&path, MeshMaterials::All(0), 0).err().expect("a NaN vertex in use").to_string();
         assert!(message.contains("bad.obj:4:1: vertex 3 is not finite"), "{message}");
         // Overflowing `f32` counts too; a non-finite vertex no face uses does not matter.
         assert_eq!(first_non_finite_vertex("v 0 0 0\nvn 0 0 1\nv 1e39 0 0\n"), Some((3, 2)));
         std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv inf 0 0\nf 1 2 3\n").unwrap();
-        assert!(load(&path, Some(0), 0).is_ok());
+        assert!(load(&path, MeshMaterials::All(0), 0).is_ok());
     }
 }
