@@ -1,7 +1,8 @@
 //! Stanford PLY meshes: ASCII, binary little-endian and binary big-endian.
 //! Reads vertex positions (`x y z`), normals when present (`nx ny nz`), and
 //! polygon faces (`vertex_indices` or `vertex_index`), triangulated by
-//! [`polygon::triangulate`].
+//! [`polygon::triangulate`], and triangle strips (`tristrips`, as some
+//! scanners' files hold).
 //! Other elements and properties are read past.
 //!
 //! Binary files are the fast way to load big meshes: the vertex block is
@@ -159,11 +160,18 @@ pub fn read(path: &Path, mut input: impl BufRead) -> Result<PlyMesh> {
                     .collect();
                 vertex_count = Some(element.count);
             }
-            "face" => {
+            "face" | "tristrips" => {
                 if vertex_count.is_none() {
-                    return Err(Error::input(path, "the face element comes before the vertex element"));
+                    let message = format!("the {} element comes before the vertex element", element.name);
+                    return Err(Error::input(path, message));
                 }
-                (mesh.indices, mesh.concave) = reader.faces(element, &mesh.positions)?;
+                if element.name == "face" {
+                    let (triangles, concave) = reader.faces(element, &mesh.positions)?;
+                    mesh.indices.extend(triangles);
+                    mesh.concave = concave;
+                } else {
+                    reader.strips(element, mesh.positions.len(), &mut mesh.indices)?;
+                }
             }
             _ => reader.skip(element)?,
         }
@@ -400,15 +408,53 @@ impl<R: BufRead> DataReader<'_, R> {
         Ok((positions, normals))
     }
 
+    /// Which of `element`'s properties lists its vertex indices.
+    fn index_list(&self, element: &Element) -> Result<usize> {
+        let list = element.properties.iter().position(|p| {
+            matches!(p, Property::List { .. }) && matches!(p.name(), "vertex_indices" | "vertex_index")
+        });
+        list.ok_or_else(|| self.error(format!("the {} element has no `vertex_indices` list", element.name)))
+    }
+
+    /// The triangles of a `tristrips` element's strips, added to
+    /// `triangles`: each three vertices in a row of a strip, every other
+    /// one turned to keep the strip's winding; an index of -1 starts a new
+    /// strip.
+    fn strips(
+        &mut self,
+        element: &Element,
+        vertex_count: usize,
+        triangles: &mut Vec<[u32; 3]>,
+    ) -> Result<()> {
+        let list = self.index_list(element)?;
+        let mut scalars = vec![0.0; element.properties.len()];
+        let mut items: Vec<f64> = Vec::new();
+        for strip in 0..element.count {
+            self.record(element, strip, &mut scalars, Some(list), &mut items)?;
+            let valid = |i: f64| i >= 0.0 && i < vertex_count as f64 && i.fract() == 0.0;
+            if let Some(bad) = items.iter().find(|&&i| !valid(i) && i != -1.0) {
+                return Err(self.error(format!(
+                    "strip {}: vertex index {bad} is not one of the {vertex_count} vertices (0 to {}) nor -1 \
+                     (a new strip)",
+                    strip + 1,
+                    vertex_count.saturating_sub(1)
+                )));
+            }
+            for run in items.split(|&i| i == -1.0) {
+                for (k, w) in run.windows(3).enumerate() {
+                    let [a, b, c] = [w[0] as u32, w[1] as u32, w[2] as u32];
+                    triangles.push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// The faces' triangles (see [`polygon::triangulate`]), and a warning
     /// if concave polygons too large to clip were fanned.
     fn faces(&mut self, element: &Element, positions: &[Vec3]) -> Result<(Vec<[u32; 3]>, Option<String>)> {
         let vertex_count = positions.len();
-        let Some(list) = element.properties.iter().position(|p| {
-            matches!(p, Property::List { .. }) && matches!(p.name(), "vertex_indices" | "vertex_index")
-        }) else {
-            return Err(self.error("the face element has no `vertex_indices` list".into()));
-        };
+        let list = self.index_list(element)?;
         let mut indices = Vec::with_capacity(element.count.min(MAX_RESERVE));
         let mut scalars = vec![0.0; element.properties.len()];
         let mut corners: Vec<f64> = Vec::new();
@@ -506,6 +552,26 @@ mod tests {
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 1, 2], [0, 2, 4], [0, 4, 3]]);
         assert!(m.normals.is_none());
         assert!(m.positions.capacity() > m.positions.len(), "room for Embree's padding");
+    }
+
+    /// Strips turn every other triangle to keep one winding, and -1 starts
+    /// a new strip; strips and faces in one file both count.
+    #[test]
+    fn reads_triangle_strips() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\n\
+            property float z\nelement tristrips 1\nproperty list int int vertex_indices\n\
+            element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+            0 0 0\n0 1 0\n1 0 0\n1 1 0\n2 0 0\n2 1 0\n8 0 2 1 3 -1 3 4 5\n3 0 4 5\n";
+        let m = read_str(text.as_bytes()).unwrap();
+        assert_eq!(m.indices, vec![[0, 2, 1], [1, 2, 3], [3, 4, 5], [0, 4, 5]]);
+        // All three of the strips' triangles face the same way (+z).
+        for t in &m.indices[..3] {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            assert!((b - a).cross(c - a).z > 0.0, "{t:?}");
+        }
+        let bad = text.replace("8 0 2 1 3 -1 3 4 5", "3 0 2 9");
+        let e = read_str(bad.as_bytes()).err().unwrap().to_string();
+        assert!(e.contains("strip 1: vertex index 9 is not one of the 6 vertices"), "{e}");
     }
 
     #[test]
