@@ -34,6 +34,31 @@ pub struct Mesh {
 /// memory is measured against a goal, work it out as before.
 pub const FACE_NORMALS_UP_TO: usize = 4_000_000;
 
+/// Meshes of fewer vertices or triangles than this are worked on by the
+/// calling thread: handing a small mesh to the thread pool costs more than
+/// it saves (an OBJ file of 20,000 objects of 4 triangles took 1.06 s to
+/// load, most of it threads woken and put back to sleep; BENCHMARKS.md).
+const PARALLEL_FROM: usize = 1 << 14;
+
+/// `f` of every item (and its index), in order: in parallel for
+/// [`PARALLEL_FROM`] items or more, else on this thread.
+fn map_all<T: Sync, U: Send>(items: &[T], f: impl Fn(usize, &T) -> U + Sync + Send) -> Vec<U> {
+    if items.len() < PARALLEL_FROM {
+        items.iter().enumerate().map(|(i, item)| f(i, item)).collect()
+    } else {
+        items.par_iter().enumerate().map(|(i, item)| f(i, item)).collect()
+    }
+}
+
+/// `f` on every item, in parallel for [`PARALLEL_FROM`] items or more.
+fn change_all<T: Send>(items: &mut [T], f: impl Fn(&mut T) + Sync + Send) {
+    if items.len() < PARALLEL_FROM {
+        items.iter_mut().for_each(f);
+    } else {
+        items.par_iter_mut().for_each(f);
+    }
+}
+
 impl Mesh {
     /// A mesh from positions and triangles. Triangles with zero area are
     /// dropped (Embree could never hit them, and they have no normal). Without
@@ -92,6 +117,10 @@ impl Mesh {
             let p0 = self.positions[i0 as usize];
             0.5 * numeric::cross_length(self.positions[i1 as usize] - p0, self.positions[i2 as usize] - p0)
         };
+        // (Under `PARALLEL_FROM` triangles, one block: the same sum either way.)
+        if self.indices.len() < PARALLEL_FROM {
+            return self.indices.iter().map(triangle).sum::<f64>();
+        }
         self.indices
             .par_chunks(1 << 16)
             .map(|block| block.iter().map(triangle).sum::<f64>())
@@ -118,10 +147,7 @@ impl Mesh {
     fn keep_face_normals(&mut self) {
         self.face_normals = Vec::new();
         if self.indices.len() <= FACE_NORMALS_UP_TO {
-            self.face_normals = (0..self.indices.len() as u32)
-                .into_par_iter()
-                .map(|prim| self.work_out_face_normal(prim))
-                .collect();
+            self.face_normals = map_all(&self.indices, |prim, _| self.work_out_face_normal(prim as u32));
         }
     }
 
@@ -144,12 +170,10 @@ impl Mesh {
         if *m == DMat4::IDENTITY && origin == DVec3::ZERO {
             return;
         }
-        self.positions
-            .par_iter_mut()
-            .for_each(|p| *p = (m.transform_point3(p.as_dvec3()) - origin).as_vec3());
+        change_all(&mut self.positions, |p| *p = (m.transform_point3(p.as_dvec3()) - origin).as_vec3());
         let linear = DMat3::from_mat4(*m);
         let normal_matrix = linear.inverse().transpose();
-        self.normals.par_iter_mut().for_each(|n| {
+        change_all(&mut self.normals, |n| {
             *n = (normal_matrix * n.as_dvec3()).try_normalize().map_or(Vec3::ZERO, |n| n.as_vec3());
         });
         if linear.determinant() < 0.0 {
@@ -193,9 +217,8 @@ pub fn vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
     // block at a time; the sums are added in triangle order, so the normals
     // are the same whatever the thread count.
     const BLOCK: usize = 1 << 16;
-    let mut weighted = vec![[Vec3::ZERO; 3]; indices.len().min(BLOCK)];
     for block in indices.chunks(BLOCK) {
-        block.par_iter().zip(&mut weighted).for_each(|(&tri, out)| *out = corner_normals(positions, tri));
+        let weighted = map_all(block, |_, &tri| corner_normals(positions, tri));
         for (tri, corners) in block.iter().zip(&weighted) {
             for (&vertex, &n) in tri.iter().zip(corners) {
                 sums[slots[vertex as usize] as usize] += n;
@@ -224,8 +247,13 @@ fn corner_normals(positions: &[Vec3], tri: [u32; 3]) -> [Vec3; 3] {
 /// list of 16-byte keys takes less memory than a hash map of them.
 fn position_slots(positions: &[Vec3]) -> Vec<u32> {
     let mut keyed: Vec<([u32; 3], u32)> =
-        positions.par_iter().enumerate().map(|(i, p)| (p.to_array().map(f32::to_bits), i as u32)).collect();
-    keyed.par_sort_unstable();
+        map_all(positions, |i, p| (p.to_array().map(f32::to_bits), i as u32));
+    // (Each key holds its vertex: no two are equal, so either sort gives one order.)
+    if keyed.len() < PARALLEL_FROM {
+        keyed.sort_unstable();
+    } else {
+        keyed.par_sort_unstable();
+    }
     let mut slots = vec![0u32; positions.len()];
     let mut slot = 0;
     for (k, &(key, vertex)) in keyed.iter().enumerate() {
@@ -246,6 +274,61 @@ mod tests {
     fn square() -> Mesh {
         let p = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
         Mesh::new("square", p, vec![[0, 1, 2], [0, 2, 3]], None, 0)
+    }
+
+    /// A height field of `n` x `n` vertices over the unit square, its
+    /// triangles facing up (+z), bent so that no two share a normal.
+    fn height_field(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let at = |i: u32, j: u32| {
+            let (x, y) = (i as f32 / (n - 1) as f32, j as f32 / (n - 1) as f32);
+            Vec3::new(x, y, 0.3 * (x * x + 2.0 * y * y * y))
+        };
+        let positions = (0..n * n).map(|k| at(k % n, k / n)).collect();
+        let quads = (0..n - 1).flat_map(|j| (0..n - 1).map(move |i| j * n + i));
+        let indices = quads.flat_map(|v| [[v, v + 1, v + n + 1], [v, v + n + 1, v + n]]).collect();
+        (positions, indices)
+    }
+
+    /// Meshes big enough to be worked on in parallel get what the calling
+    /// thread alone gives: the same normals, triangles' normals and area,
+    /// bit for bit, as the same mesh cut into pieces each under the threshold.
+    #[test]
+    fn big_meshes_in_parallel_match_small_ones_on_one_thread() {
+        let (positions, indices) = height_field(160);
+        assert!(positions.len() >= PARALLEL_FROM && indices.len() >= PARALLEL_FROM);
+        let whole = Mesh::new("whole", positions.clone(), indices.clone(), None, 0);
+        // Rows of the field by themselves (each vertex's neighbours are all
+        // in its piece but on the pieces' shared rows, left out here).
+        let rows = 40;
+        for piece in 0..3u32 {
+            let first = piece * (rows - 1) * 159 * 2;
+            let tris: Vec<[u32; 3]> = indices[first as usize..][..((rows - 1) * 159 * 2) as usize].to_vec();
+            assert!(tris.len() < PARALLEL_FROM);
+            let small = Mesh::new("piece", positions.clone(), tris.clone(), None, 0);
+            for (k, tri) in tris.iter().enumerate() {
+                let prim = first as usize + k;
+                assert_eq!(small.face_normal(k as u32), whole.face_normal(prim as u32));
+                // Vertices off the piece's first and last row have all their triangles in it.
+                for &v in tri {
+                    let row = v / 160;
+                    if row > piece * (rows - 1) && row < (piece + 1) * (rows - 1) {
+                        assert_eq!(small.normals[v as usize], whole.normals[v as usize], "vertex {v}");
+                    }
+                }
+            }
+        }
+        let sequential: f64 = indices
+            .chunks(PARALLEL_FROM - 1)
+            .map(|tris| Mesh::new("piece", positions.clone(), tris.to_vec(), None, 0).area())
+            .sum();
+        assert!((whole.area() - sequential).abs() < 1e-12 * sequential, "{} {sequential}", whole.area());
+        // And placing it moves every vertex as one at a time would.
+        let mut placed = whole.clone();
+        let m = DMat4::from_translation(DVec3::new(1.0, 2.0, 3.0)) * DMat4::from_rotation_y(0.3);
+        placed.place(&m, DVec3::new(0.5, 0.0, 0.0));
+        for (p, q) in whole.positions.iter().zip(&placed.positions).step_by(997) {
+            assert_eq!(*q, (m.transform_point3(p.as_dvec3()) - DVec3::new(0.5, 0.0, 0.0)).as_vec3());
+        }
     }
 
     #[test]
