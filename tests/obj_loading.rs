@@ -291,3 +291,32 @@ fn byte_order_marks_continued_lines_and_two_mtl_files_on_a_line() {
     let err = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap_err().to_string();
     assert!(err.contains("odd.obj:16:") && err.contains("vertex 9 does not exist"), "{err}");
 }
+
+/// A model placed by several `[[mesh]]` is read once: each placement gets
+/// its own copy of the meshes, moved by its own transform, and the MTL
+/// materials are added once (a `[[mesh]]` giving its own `material` is a
+/// read of its own). Its warnings are said once.
+#[test]
+fn a_model_placed_several_times_is_read_once() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "m.mtl", "newmtl matte\nKd 0.5 0.25 0.125\nmap_Kd wood.png\n");
+    write(dir.path(), "m.obj", &triangle_per_material("m.mtl", &["matte"]));
+    let mut text = format!("{QUAD_SCENE}\n");
+    for x in [0, 10, 20] {
+        text += &format!("[[mesh]]\nfile = \"m.obj\"\ntransform = {{ translate = [{x}, 0, 0] }}\n");
+    }
+    text += "[[mesh]]\nfile = \"m.obj\"\nmaterial = \"white\"\n";
+    let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+    let placed: Vec<_> = scene.meshes.iter().filter(|m| m.name == "m.obj:matte").collect();
+    assert_eq!(placed.len(), 4);
+    let from_file: Vec<_> = scene.materials.iter().filter(|m| m.name == "m.obj:matte").collect();
+    assert_eq!(from_file.len(), 1, "the MTL materials once");
+    for (mesh, x) in placed.iter().zip([0.0, 10.0, 20.0]) {
+        assert_eq!(scene.materials[mesh.material].diffuse, Vec3::new(0.5, 0.25, 0.125));
+        let shift = mesh.positions[1] - placed[0].positions[1];
+        assert!((shift - Vec3::new(x, 0.0, 0.0)).length() < 1e-5, "{shift}");
+    }
+    assert_eq!(scene.materials[placed[3].material].name, "white");
+    let textures = scene.warnings.iter().filter(|w| w.contains("texture maps")).count();
+    assert_eq!(textures, 1, "{:?}", scene.warnings);
+}

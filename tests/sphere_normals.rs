@@ -49,3 +49,35 @@ fn shading_normals_inside_triangles_are_close_to_analytic() {
     eprintln!("worst interpolated normal error at level 4: {worst} degrees");
     assert!(worst < 0.2, "{worst} degrees");
 }
+
+/// The spheres of a scene are each their own: a unit sphere of each level
+/// is made once and copied, and every copy keeps its sphere's name,
+/// material, centre, radius and level, with the normals of a sphere made
+/// alone.
+#[test]
+fn spheres_of_one_level_in_a_scene_are_each_their_own() {
+    let text = "[camera]\neye = [0, 0, 10]\nlook_at = [0, 0, 0]\n\
+        [materials.red]\ndiffuse = [0.8, 0, 0]\n[materials.blue]\ndiffuse = [0, 0, 0.8]\n\
+        [[point_light]]\nposition = [0, 5, 5]\npower = 100\n\
+        [[sphere]]\ncenter = [-2, 0, 0]\nradius = 0.5\nmaterial = \"red\"\n\
+        [[sphere]]\ncenter = [0, 1, 0]\nradius = 2\nsubdivisions = 2\nmaterial = \"blue\"\n\
+        [[sphere]]\ncenter = [2, 0, 0]\nradius = 1\nmaterial = \"blue\"\n";
+    let scene = caustix::scene::Scene::from_toml(text, std::path::Path::new("s.toml")).unwrap();
+    let origin = Vec3::new(0.0, 0.0, 10.0); // positions are relative to the camera
+    for (name, center, radius, level, material) in [
+        ("sphere #1", Vec3::new(-2.0, 0.0, 0.0), 0.5, 4, "red"),
+        ("sphere #2", Vec3::new(0.0, 1.0, 0.0), 2.0, 2, "blue"),
+        ("sphere #3", Vec3::new(2.0, 0.0, 0.0), 1.0, 4, "blue"),
+    ] {
+        let mesh = scene.meshes.iter().find(|m| m.name == name).unwrap();
+        assert_eq!(mesh.indices.len(), 20 << (2 * level), "{name}");
+        assert_eq!(scene.materials[mesh.material].name, material, "{name}");
+        let alone = sphere(name, center - origin, radius, level, mesh.material);
+        for ((p, q), (n, m)) in
+            mesh.positions.iter().zip(&alone.positions).zip(mesh.normals.iter().zip(&alone.normals))
+        {
+            assert!((*p - *q).length() < 1e-5 * radius, "{name}: {p} against {q}");
+            assert!((*n - *m).length() < 1e-5, "{name}: {n} against {m}");
+        }
+    }
+}

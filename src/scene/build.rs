@@ -244,14 +244,15 @@ impl Builder<'_> {
         // Each shape is made around the origin at unit size where it can be,
         // and placed by one f64 matrix: exact at any size and distance.
         let at = |center: Position| DMat4::from_translation(center.0);
+        // The unit sphere of each level, made once: a scene of thousands of
+        // spheres made each anew, and the making was most of its loading.
+        let mut unit_spheres: HashMap<u32, Mesh> = HashMap::new();
         for (i, s) in f.sphere.iter().enumerate() {
-            let mut m = shapes::sphere(
-                &format!("sphere #{}", i + 1),
-                Vec3::ZERO,
-                1.0,
-                s.subdivisions,
-                lookup(&s.material)?,
-            );
+            let unit = unit_spheres
+                .entry(s.subdivisions)
+                .or_insert_with(|| shapes::sphere("unit sphere", Vec3::ZERO, 1.0, s.subdivisions, 0));
+            let mut m = unit.clone();
+            (m.name, m.material) = (format!("sphere #{}", i + 1), lookup(&s.material)?);
             let size = DMat4::from_scale(DVec3::splat(s.radius.0 as f64));
             m.place(&(transform_matrix(&s.transform) * at(s.center) * size), self.origin);
             meshes.push(m);
@@ -346,9 +347,9 @@ impl Builder<'_> {
         meshes: &mut Vec<Mesh>,
         materials: &mut Vec<Material>,
     ) -> Result<Vec<String>> {
-        let mut obj_warnings = Vec::new();
+        // Each [[mesh]]'s file and the materials its faces take.
+        let mut entries = Vec::with_capacity(f.mesh.len());
         for m in &f.mesh {
-            let obj_path = self.relative(m.file.get_ref());
             let choice = match (&m.material, &m.default_material) {
                 (Some(_), Some(fallback)) => {
                     return Err(self.error_at(
@@ -362,27 +363,52 @@ impl Builder<'_> {
                     MeshMaterials::FromFile { fallback: fallback.as_ref().map(lookup).transpose()? }
                 }
             };
-            let contents = load_mesh_file(&obj_path, choice, materials.len()).map_err(|e| match e {
-                Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self.error_at(
-                    m.file.span(),
-                    format!(
-                        "mesh file `{}` not found (paths are relative to the scene file)",
-                        obj_path.display()
-                    ),
-                ),
-                other => other,
-            })?;
-            materials.extend(contents.materials);
-            obj_warnings.extend(contents.warnings);
-            if contents.meshes.iter().all(|mesh| mesh.indices.is_empty()) {
-                obj_warnings.push(format!(
-                    "{}: no triangles (no face of three or more corners with an area): this [[mesh]] \
-                     adds nothing to the scene",
-                    obj_path.display()
-                ));
+            entries.push((self.relative(m.file.get_ref()), choice));
+        }
+        // A file that several [[mesh]] place (one model in many places) is
+        // read once, its meshes kept for the others until the last.
+        let mut uses: HashMap<&(PathBuf, MeshMaterials), usize> = HashMap::new();
+        for entry in &entries {
+            *uses.entry(entry).or_default() += 1;
+        }
+        let mut kept: HashMap<&(PathBuf, MeshMaterials), Vec<Mesh>> = HashMap::new();
+        let mut obj_warnings = Vec::new();
+        for (m, entry) in f.mesh.iter().zip(&entries) {
+            let (obj_path, choice) = entry;
+            let left = uses.get_mut(entry).expect("every entry is counted");
+            *left -= 1;
+            let file_meshes = match kept.remove(entry) {
+                Some(file_meshes) => file_meshes,
+                None => {
+                    let contents =
+                        load_mesh_file(obj_path, *choice, materials.len()).map_err(|e| match e {
+                            Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self
+                                .error_at(
+                                    m.file.span(),
+                                    format!(
+                                        "mesh file `{}` not found (paths are relative to the scene file)",
+                                        obj_path.display()
+                                    ),
+                                ),
+                            other => other,
+                        })?;
+                    materials.extend(contents.materials);
+                    obj_warnings.extend(contents.warnings);
+                    if contents.meshes.iter().all(|mesh| mesh.indices.is_empty()) {
+                        obj_warnings.push(format!(
+                            "{}: no triangles (no face of three or more corners with an area): this \
+                             [[mesh]] adds nothing to the scene",
+                            obj_path.display()
+                        ));
+                    }
+                    contents.meshes
+                }
+            };
+            if *left > 0 {
+                kept.insert(entry, file_meshes.clone());
             }
             let matrix = transform_matrix(&m.transform);
-            for mut mesh in contents.meshes {
+            for mut mesh in file_meshes {
                 mesh.place(&matrix, self.origin);
                 meshes.push(mesh);
             }

@@ -13,7 +13,7 @@ use crate::error::{Error, Location, Result};
 use crate::material::Material;
 
 /// Which materials a mesh file's faces take.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum MeshMaterials {
     /// This one (a scene material's index) on every face, whatever the file says.
     All(usize),
