@@ -453,44 +453,57 @@ fn unread_mtl_features(list: &[tobj::Material], file: &str) -> Vec<String> {
 }
 
 /// Finds the first line `tobj` most likely failed on, since its errors carry
-/// no line number: a `v`/`vn`/`vt` with a non-number, or an `f` whose vertex
-/// reference is not a number or points outside the vertices read so far.
+/// no line number: a `v`/`vn`/`vt` with a non-number or too few numbers, or
+/// an `f` whose vertex, texture or normal reference is not a number or
+/// points outside those read so far.
 pub fn locate_problem(text: &str) -> Option<(usize, String)> {
-    let mut vertices: i64 = 0;
+    // Vertices, texture coordinates and normals read so far.
+    let (mut v, mut vt, mut vn): (i64, i64, i64) = (0, 0, 0);
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         let line_no = i + 1;
+        let at = |what: String| Some((line_no, format!(" (line {line_no}: {what})")));
         match words.next() {
             Some(kind @ ("v" | "vn" | "vt")) => {
-                if let Some(bad) = words.find(|w| w.parse::<f32>().is_err()) {
-                    return Some((line_no, format!(" (line {line_no}: `{kind}` has `{bad}`, not a number)")));
+                let numbers: Vec<&str> = words.collect();
+                if let Some(bad) = numbers.iter().find(|w| w.parse::<f32>().is_err()) {
+                    return at(format!("`{kind}` has `{bad}`, not a number"));
                 }
-                if kind == "v" {
-                    vertices += 1;
+                let (needs, count) = match kind {
+                    "v" => (3, &mut v),
+                    "vn" => (3, &mut vn),
+                    _ => (2, &mut vt),
+                };
+                if numbers.len() < needs {
+                    return at(format!("`{kind}` needs {needs} numbers, has {}", numbers.len()));
                 }
+                *count += 1;
             }
             Some("f") => {
                 let refs: Vec<&str> = words.collect();
                 if refs.len() < 3 {
-                    return Some((line_no, format!(" (line {line_no}: a face needs at least 3 vertices)")));
+                    return at("a face needs at least 3 vertices".into());
                 }
                 for r in refs {
-                    let first = r.split('/').next().unwrap_or("");
-                    match first.parse::<i64>() {
-                        Ok(k) if (1..=vertices).contains(&k) || (-vertices..=-1).contains(&k) => {}
-                        Ok(k) => {
-                            return Some((
-                                line_no,
-                                format!(
-                                    " (line {line_no}: vertex {k} does not exist; {vertices} read so far)"
-                                ),
-                            ))
-                        }
-                        Err(_) => {
-                            return Some((
-                                line_no,
-                                format!(" (line {line_no}: `{r}` is not a vertex reference)"),
-                            ))
+                    let mut parts = r.split('/');
+                    let vertex = parts.next().unwrap_or("");
+                    let Ok(k) = vertex.parse::<i64>() else {
+                        return at(format!("`{r}` is not a vertex reference"));
+                    };
+                    if !(1..=v).contains(&k) && !(-v..=-1).contains(&k) {
+                        return at(format!("vertex {k} does not exist; {v} read so far"));
+                    }
+                    // `v/vt`, `v//vn` or `v/vt/vn`: the texture and normal references.
+                    for (part, what, read, kind) in
+                        [(parts.next(), "texture coordinate", vt, "vt"), (parts.next(), "normal", vn, "vn")]
+                    {
+                        let Some(part) = part.filter(|p| !p.is_empty()) else { continue };
+                        match part.parse::<i64>() {
+                            Ok(k) if (1..=read).contains(&k) || (-read..=-1).contains(&k) => {}
+                            Ok(k) => {
+                                return at(format!("{what} {k} does not exist; {read} `{kind}` read so far"))
+                            }
+                            Err(_) => return at(format!("`{r}` has `{part}`, not a {what} reference")),
                         }
                     }
                 }
@@ -527,10 +540,22 @@ mod tests {
 
     #[test]
     fn locates_bad_vertices_and_faces() {
+        let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+        let at = |text: &str| locate_problem(text).map(|(line, what)| (line, what.trim().to_string()));
+        assert_eq!(
+            at(&format!("{tri}vn 0 0 1\nf 1//1 2//1 3//5\n")),
+            Some((5, "(line 5: normal 5 does not exist; 1 `vn` read so far)".into()))
+        );
+        assert_eq!(at(&format!("{tri}vt 0 0\nf 1/1 2/1 3/7\n")).map(|p| p.0), Some(5));
+        assert_eq!(at(&format!("{tri}vt 0 0\nf 1/1 2/1 3/x\n")).map(|p| p.0), Some(5));
+        assert_eq!(at(&format!("{tri}vt 0 0\nvn 0 0 1\nf 1/1/1 2/-1/-1 3//1\n")), None);
+        assert_eq!(at("v 0 0\n"), Some((1, "(line 1: `v` needs 3 numbers, has 2)".into())));
+        assert_eq!(at(&format!("{tri}vn 0 1\n")).map(|p| p.0), Some(4));
         assert_eq!(locate_problem("v 0 0 0\nv 1 x 0\n").map(|p| p.0), Some(2));
         assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").map(|p| p.0), Some(4));
         assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -3\n"), None);
-        assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2//3 3\n"), None);
+        // References to texture coordinates and normals the file lacks.
+        assert_eq!(locate_problem("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2//3 3\n").map(|p| p.0), Some(4));
     }
 
     #[test]
