@@ -320,3 +320,40 @@ fn a_model_placed_several_times_is_read_once() {
     let textures = scene.warnings.iter().filter(|w| w.contains("texture maps")).count();
     assert_eq!(textures, 1, "{:?}", scene.warnings);
 }
+
+/// An MTL file's problems are errors at its own line, and a missing one
+/// says which OBJ file named it (it used to read as the mesh file
+/// missing); a colour of one number is the grey the format says it is;
+/// a missing MTL file whose materials no face uses is no error.
+#[test]
+fn mtl_problems_are_named_in_the_mtl_file() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "m.obj", &triangle_per_material("m.mtl", &["paint"]));
+    let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"m.obj\"\n");
+    let scene_path = write(dir.path(), "s.toml", &text);
+    let load = |mtl: &str| {
+        write(dir.path(), "m.mtl", mtl);
+        Scene::load(&scene_path)
+    };
+    let scene = load("newmtl paint\nKd 0.25\nKs 0.5\n").unwrap();
+    let paint = scene.materials.iter().find(|m| m.name == "m.obj:paint").unwrap();
+    assert_eq!((paint.diffuse, paint.specular), (Vec3::splat(0.25), Vec3::splat(0.5)));
+    for (mtl, says) in [
+        ("newmtl paint\nKd 0.8 0 0\nNs shiny\n", "m.mtl:3:1: `Ns` needs a number"),
+        ("newmtl paint\nillum 300\n", "m.mtl:2:1: `illum` needs an illumination model"),
+        ("newmtl\n", "m.mtl:1:1: `newmtl` needs the material's name"),
+        ("newmtl paint\nKd spectral paint.rfl\n", "m.mtl:2:1: `Kd` needs three numbers (red, green, blue), or one for grey (`Kd spectral` is not read)"),
+        ("newmtl paint\nmap_Kd\n", "m.mtl:2:1: `map_Kd` needs a file name"),
+    ] {
+        let err = load(mtl).unwrap_err().to_string();
+        assert!(err.contains(says), "{mtl:?}: {err}");
+    }
+    std::fs::remove_file(dir.path().join("m.mtl")).unwrap();
+    let err = Scene::load(&scene_path).unwrap_err().to_string();
+    assert!(
+        err.contains("m.mtl: MTL file not found (named by `mtllib` in") && err.contains("m.obj"),
+        "{err}"
+    );
+    let given = format!("{text}material = \"white\"\n");
+    assert!(Scene::load(&write(dir.path(), "s.toml", &given)).is_ok());
+}

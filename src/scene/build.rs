@@ -382,14 +382,18 @@ impl Builder<'_> {
                 None => {
                     let contents =
                         load_mesh_file(obj_path, *choice, materials.len()).map_err(|e| match e {
-                            Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => self
-                                .error_at(
+                            // (The mesh file's own, not an MTL file's it names.)
+                            Error::Io { path, cause }
+                                if &path == obj_path && cause.kind() == std::io::ErrorKind::NotFound =>
+                            {
+                                self.error_at(
                                     m.file.span(),
                                     format!(
                                         "mesh file `{}` not found (paths are relative to the scene file)",
                                         obj_path.display()
                                     ),
-                                ),
+                                )
+                            }
                             other => other,
                         })?;
                     materials.extend(contents.materials);

@@ -69,10 +69,19 @@ pub fn load(path: &Path, choice: MeshMaterials, first_material: usize) -> Result
         for file in mtl_files(&dir, mtl_path) {
             *mtl_file.borrow_mut() = Some(file.clone());
             let mtl_text = crate::files::read_text(&file, crate::files::MAX_TEXT_BYTES)
-                .map(|t| without_bom(&t).to_string())
-                .and_then(|t| check_mtl(&file, &t).map(|()| t))
+                .map_err(|e| match e {
+                    Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => Error::input(
+                        &file,
+                        format!(
+                            "MTL file not found (named by `mtllib` in {}; its paths are relative to the OBJ file)",
+                            path.display()
+                        ),
+                    ),
+                    other => other,
+                })
+                .and_then(|t| mtl_statements(&file, &t).map(Cow::into_owned))
                 .map_err(|e| {
-                    *mtl_error.borrow_mut() = Some(e.to_string());
+                    *mtl_error.borrow_mut() = Some(e);
                     tobj::LoadError::MaterialParseError
                 })?;
             // As tobj merges the files of several `mtllib` lines: a later
@@ -96,33 +105,29 @@ pub fn load(path: &Path, choice: MeshMaterials, first_material: usize) -> Result
 
     let file_name = path.file_name().map_or_else(|| "obj".into(), |n| n.to_string_lossy().into_owned());
     let mut warnings = Vec::new();
-    // What went wrong with the MTL file, said wherever a material is missing.
-    let mtl_problem = match (&mtl, mtl_error.borrow().as_ref(), mtl_file.borrow().as_ref()) {
-        (Err(_), Some(ours), _) => Some(ours.clone()),
-        (Err(e), None, Some(file)) => {
-            Some(format!("its MTL file `{}` could not be read: {e}", file.display()))
+    // An MTL file the faces would use that could not be read is the error
+    // (a file named but not used is not).
+    if let (Err(e), None) = (&mtl, material_override) {
+        if statements(&text, "usemtl").next().is_some() {
+            return Err(match (mtl_error.into_inner(), mtl_file.into_inner()) {
+                (Some(ours), _) => ours,
+                (None, Some(file)) => Error::input(&file, format!("cannot read MTL: {e}")),
+                (None, None) => Error::input(path, format!("cannot read its materials: {e}")),
+            });
         }
-        _ => None,
-    };
+    }
     let fallback = match choice {
         MeshMaterials::All(_) => None,
         MeshMaterials::FromFile { fallback } => fallback,
     };
     let mut mtl_names = Vec::new();
     let materials = match (mtl, material_override) {
-        (_, Some(_)) => Vec::new(),
         (Ok(list), None) => {
             mtl_names.extend(list.iter().map(|m| m.name.clone()));
             warnings.extend(unread_mtl_features(&list, &file_name));
             list.iter().map(|m| convert_material(m, &file_name, &mut warnings)).collect()
         }
-        (Err(_), None) => {
-            if models.iter().any(|m| m.mesh.material_id.is_some()) {
-                let why = mtl_problem.map_or_else(String::new, |p| format!(" ({p})"));
-                return Err(Error::input(path, format!("cannot read its materials{why}")));
-            }
-            Vec::new()
-        }
+        _ => Vec::new(),
     };
 
     let mut meshes = Vec::with_capacity(models.len());
@@ -162,7 +167,7 @@ pub fn load(path: &Path, choice: MeshMaterials, first_material: usize) -> Result
                 id
             }
             (None, _, None) => {
-                let why = why_no_material(&text, &mtl_names, mtl_problem.as_deref());
+                let why = why_no_material(&text, &mtl_names);
                 return Err(Error::input(path, format!("object `{}` has no material: {why}", model.name)));
             }
         };
@@ -247,11 +252,10 @@ fn logical_lines(text: &str) -> Cow<'_, str> {
 }
 
 /// Why faces of an OBJ file (its `text`, whose MTL files define
-/// `mtl_names`; `mtl_problem` says what went wrong reading them) have no
-/// material, and what to give the `[[mesh]]`: a `usemtl` naming a material
-/// the MTL files lack, or faces before the first `usemtl`, or no `usemtl`
-/// at all.
-fn why_no_material(text: &str, mtl_names: &[String], mtl_problem: Option<&str>) -> String {
+/// `mtl_names`) have no material, and what to give the `[[mesh]]`: a
+/// `usemtl` naming a material the MTL files lack, or faces before the
+/// first `usemtl`, or no `usemtl` at all.
+fn why_no_material(text: &str, mtl_names: &[String]) -> String {
     // The name as tobj reads it: all after the keyword's first space.
     let uses = || {
         text.lines()
@@ -267,10 +271,7 @@ fn why_no_material(text: &str, mtl_names: &[String], mtl_problem: Option<&str>) 
     match (unknown, first_use, first_face) {
         (Some((line, name)), _, _) => {
             let defined = match mtl_names.len() {
-                0 => match mtl_problem {
-                    Some(problem) => format!("they were not read: {problem}"),
-                    None => "they define none".to_string(),
-                },
+                0 => "they define none".to_string(),
                 n if n <= 8 => format!("they define {}", mtl_names.join(", ")),
                 n => format!("they define {n}, among them {}", mtl_names[..8].join(", ")),
             };
@@ -296,22 +297,65 @@ fn mtl_files(dir: &Path, named: &Path) -> Vec<std::path::PathBuf> {
     words.into_iter().map(|w| dir.join(w)).collect()
 }
 
-/// Checks what tobj's MTL parser trusts: colour statements (`Ka`, `Kd`,
-/// `Ks`, `Ke`) with three numbers (with fewer it panics).
-fn check_mtl(path: &Path, text: &str) -> Result<()> {
+/// An MTL file's `text` as tobj should read it, or the first statement it
+/// would refuse (or, for colours of fewer than three numbers, panic on),
+/// with its line: without a byte order mark, and with a colour given as one
+/// number (`Kd 0.8`, which the format reads as grey) written as three.
+fn mtl_statements<'t>(path: &Path, text: &'t str) -> Result<Cow<'t, str>> {
+    let text = without_bom(text);
+    let mut grey = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
-        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
-            if words.take(3).filter(|w| w.parse::<f32>().is_ok()).count() < 3 {
-                return Err(Error::input_at(
-                    path,
-                    Location { line: i + 1, column: 1 },
-                    format!("`{key}` needs three numbers (red, green, blue)"),
-                ));
+        let at = |message: String| Error::input_at(path, Location { line: i + 1, column: 1 }, message);
+        let numbers =
+            |words: std::str::SplitWhitespace| words.map(|w| w.parse::<f32>().ok()).collect::<Vec<_>>();
+        let problem = match words.next() {
+            Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) => match numbers(words.clone())[..] {
+                [Some(_), Some(_), Some(_), ..] => None,
+                [Some(_)] => {
+                    grey.push(i);
+                    None
+                }
+                _ => {
+                    let form = words.next().filter(|w| matches!(*w, "spectral" | "xyz"));
+                    let what = form.map_or_else(String::new, |f| format!(" (`{key} {f}` is not read)"));
+                    Some(format!("`{key}` needs three numbers (red, green, blue), or one for grey{what}"))
+                }
+            },
+            Some(key @ ("Ns" | "Ni" | "d")) if !matches!(numbers(words.clone())[..], [Some(_), ..]) => {
+                Some(format!("`{key}` needs a number"))
             }
+            Some("illum") if words.next().is_none_or(|w| w.parse::<u8>().is_err()) => {
+                Some("`illum` needs an illumination model: a whole number from 0 to 10".into())
+            }
+            Some("newmtl") if words.next().is_none() => Some("`newmtl` needs the material's name".into()),
+            // (The maps tobj reads; it keeps others' words as they are.)
+            Some(
+                key @ ("map_Ka" | "map_Kd" | "map_Ks" | "map_Bump" | "map_bump" | "map_Ns" | "map_ns"
+                | "map_NS" | "bump" | "map_d"),
+            ) if words.next().is_none() => Some(format!("`{key}` needs a file name")),
+            _ => None,
+        };
+        if let Some(problem) = problem {
+            return Err(at(problem));
         }
     }
-    Ok(())
+    if grey.is_empty() {
+        return Ok(Cow::Borrowed(text));
+    }
+    let mut out = String::with_capacity(text.len() + 16 * grey.len());
+    for (i, line) in text.lines().enumerate() {
+        match grey.binary_search(&i) {
+            Ok(_) => {
+                let mut words = line.split_whitespace();
+                let (key, value) = (words.next().unwrap_or_default(), words.next().unwrap_or_default());
+                out.push_str(&format!("{key} {value} {value} {value}"));
+            }
+            Err(_) => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    Ok(Cow::Owned(out))
 }
 
 /// The line and the number (from 1, as faces count them) of the file's
