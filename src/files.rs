@@ -77,6 +77,26 @@ pub fn write_whole(path: &Path, bytes: &[u8]) -> Result<()> {
     write_with(path, |out| out.write_all(bytes))
 }
 
+/// Writes `items` to `out`, each encoded by `encode` into a buffer that is
+/// written a megabyte at a time (a binary mesh file's records: one write
+/// call each would be a system call each).
+pub fn write_records<T>(
+    out: &mut impl Write,
+    items: impl IntoIterator<Item = T>,
+    mut encode: impl FnMut(&mut Vec<u8>, T),
+) -> std::io::Result<()> {
+    const BLOCK: usize = 1 << 20;
+    let mut buffer = Vec::with_capacity(BLOCK + 256);
+    for item in items {
+        encode(&mut buffer, item);
+        if buffer.len() >= BLOCK {
+            out.write_all(&buffer)?;
+            buffer.clear();
+        }
+    }
+    out.write_all(&buffer)
+}
+
 /// [`write_whole`] for output made piece by piece: `write` gets a buffered
 /// writer, and the file appears at `path` only once all of it is written.
 pub fn write_with(path: &Path, write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {

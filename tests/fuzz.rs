@@ -12,7 +12,7 @@
 use std::io::Cursor;
 use std::path::Path;
 
-use caustix::scene::{obj, ply, Scene};
+use caustix::scene::{obj, ply, stl, Scene};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
@@ -178,6 +178,28 @@ proptest! {
         std::fs::write(&path, apply(text.as_bytes(), &edits)).unwrap();
         let _ = obj::load(&path, obj::MeshMaterials::FromFile { fallback: None }, 0);
         let _ = obj::load(&path, obj::MeshMaterials::All(0), 0);
+    }
+
+    #[test]
+    fn stl_files_never_panic(binary in any::<bool>(), edits in prop::collection::vec(edit(), 1..6)) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("fuzzed.stl");
+        std::fs::write(&path, apply(&stl_seed(binary), &edits)).unwrap();
+        let _ = stl::load(&path);
+    }
+}
+
+/// A small valid STL mesh, ASCII or binary.
+fn stl_seed(binary: bool) -> Vec<u8> {
+    if binary {
+        let positions = [glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y, glam::Vec3::ONE];
+        let mut bytes = Vec::new();
+        stl::write_binary(&mut bytes, &positions, &[[0, 1, 2], [1, 3, 2]]).unwrap();
+        bytes
+    } else {
+        b"solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n\
+          facet normal 0 0 1\nouter loop\nvertex 1 0 0\nvertex 1 1 1\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n"
+            .to_vec()
     }
 }
 

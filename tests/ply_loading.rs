@@ -1,5 +1,5 @@
 //! PLY files: `caustix export` writes a scene's triangles as binary PLY (and
-//! OBJ), and a `[[mesh]]` reads them back as the same triangles.
+//! OBJ and STL), and a `[[mesh]]` reads them back as the same triangles.
 
 mod common;
 
@@ -31,7 +31,7 @@ fn exported_meshes_load_back_as_the_same_triangles() {
     let scene_path = write(dir.path(), "shapes.toml", SHAPES);
     let original = Scene::load(&scene_path).unwrap();
     let (positions, _, indices) = original.merged_triangles();
-    for name in ["shapes.ply", "shapes.obj"] {
+    for name in ["shapes.ply", "shapes.obj", "shapes.stl"] {
         let out = dir.path().join(name);
         let run = caustix(&["export".as_ref(), scene_path.as_os_str(), "-o".as_ref(), out.as_os_str()]);
         assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
@@ -47,6 +47,14 @@ fn exported_meshes_load_back_as_the_same_triangles() {
         assert!(corners(&p, &i) == corners(&positions, &indices), "{name}: triangles differ");
         if name.ends_with(".ply") {
             assert!(i == indices && p == positions, "PLY keeps the vertex order");
+        }
+        if name.ends_with(".stl") {
+            // Flat: each corner's normal is its triangle's.
+            let mesh = &loaded.meshes[0];
+            for (k, t) in mesh.indices.iter().enumerate() {
+                let face = mesh.face_normal(k as u32);
+                assert!(t.iter().all(|&v| (mesh.normals[v as usize] - face).length() < 1e-6), "triangle {k}");
+            }
         }
     }
 }

@@ -10,8 +10,8 @@ use caustix::scene::Scene;
 pub fn export(scene_path: &Path, output: &Path, teapot_subdivisions: Option<u32>) -> anyhow::Result<()> {
     let extension = output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     anyhow::ensure!(
-        matches!(extension.as_deref(), Some("ply" | "obj")),
-        "--output {}: write .ply (binary, fast to load) or .obj",
+        matches!(extension.as_deref(), Some("ply" | "obj" | "stl")),
+        "--output {}: write .ply (binary, fast to load), .obj or .stl (binary; its triangles shade flat)",
         output.display()
     );
     if let Some(level) = teapot_subdivisions {
@@ -21,12 +21,10 @@ pub fn export(scene_path: &Path, output: &Path, teapot_subdivisions: Option<u32>
     let start = std::time::Instant::now();
     let scene = Scene::load_with(scene_path, &caustix::scene::Overrides { teapot_subdivisions })?;
     let (positions, normals, indices) = scene.merged_triangles();
-    caustix::files::write_with(output, |out| {
-        if extension.as_deref() == Some("ply") {
-            caustix::scene::ply::write_binary(out, &positions, &normals, &indices)
-        } else {
-            caustix::scene::obj::write(out, &positions, &normals, &indices)
-        }
+    caustix::files::write_with(output, |out| match extension.as_deref() {
+        Some("ply") => caustix::scene::ply::write_binary(out, &positions, &normals, &indices),
+        Some("stl") => caustix::scene::stl::write_binary(out, &positions, &indices),
+        _ => caustix::scene::obj::write(out, &positions, &normals, &indices),
     })?;
     eprintln!(
         "wrote {}: {} triangles, {} vertices in {:.1} s",

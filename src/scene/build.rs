@@ -11,7 +11,7 @@ use toml::Spanned;
 
 use super::obj::MeshMaterials;
 use super::values::Position;
-use super::{file, obj, ply, shapes, teapot, Camera, Mesh, Overrides, Scene};
+use super::{file, obj, ply, shapes, stl, teapot, Camera, Mesh, Overrides, Scene};
 use crate::config::limits::{MAX_DISTANCE, MIN_EXTENT};
 use crate::config::{PhotonConfig, RenderConfig, SppmConfig};
 use crate::error::{Error, Location, Result};
@@ -489,43 +489,51 @@ fn transform_matrix(t: &file::TransformSection) -> DMat4 {
     DMat4::from_scale_rotation_translation(scale, rotation, t.translate.map_or(DVec3::ZERO, |v| v.0))
 }
 
-/// Meshes from an OBJ or PLY file (PLY by its extension or its header,
-/// OBJ otherwise). PLY files have no materials, so their `[[mesh]]` must
-/// name one.
+/// Meshes from an OBJ, PLY or STL file (PLY by its extension or its
+/// header, STL by its extension, OBJ otherwise). PLY and STL files have no
+/// materials, so their `[[mesh]]` must name one.
 pub(super) fn load_mesh_file(
     path: &Path,
     choice: MeshMaterials,
     first_material: usize,
 ) -> Result<obj::ObjContents> {
-    let is_ply = super::NotAScene::sniffed(path) == Some(super::NotAScene::Ply);
-    if !is_ply {
-        return obj::load(path, choice, first_material);
-    }
+    let kind = super::NotAScene::sniffed(path);
+    let format = match kind {
+        Some(super::NotAScene::Ply) => "PLY",
+        Some(super::NotAScene::Stl) => "STL",
+        _ => return obj::load(path, choice, first_material),
+    };
     let (material, defaulted) = match choice {
         MeshMaterials::All(id) => (id, false),
         MeshMaterials::FromFile { fallback: Some(id) } => (id, true),
         MeshMaterials::FromFile { fallback: None } => {
             return Err(Error::input(
                 path,
-                "PLY files carry no materials; give the [[mesh]] a `material = \"...\"`",
+                format!("{format} files carry no materials; give the [[mesh]] a `material = \"...\"`"),
             ))
         }
     };
-    let ply = ply::load(path)?;
-    let name = path.file_name().map_or_else(|| "ply".into(), |n| n.to_string_lossy().into_owned());
+    let name = path.file_name().map_or_else(|| format.to_lowercase(), |n| n.to_string_lossy().into_owned());
     let mut warnings = Vec::new();
-    if !ply.unread.is_empty() {
-        let colours =
-            ply.unread.iter().any(|p| matches!(p.as_str(), "red" | "green" | "blue" | "r" | "g" | "b"));
-        warnings.push(format!(
-            "{name}: vertex properties caustix does not read were left out: {}{}",
-            ply.unread.join(", "),
-            if colours { " (the [[mesh]]'s material colours the whole mesh)" } else { "" }
-        ));
-    }
-    warnings.extend(ply.concave.map(|w| format!("{name}: {w}")));
-    let faces = ply.indices.len();
-    let mesh = Mesh::new(name.clone(), ply.positions, ply.indices, ply.normals, material);
+    let (positions, indices, normals) = if kind == Some(super::NotAScene::Stl) {
+        let stl = stl::load(path)?;
+        (stl.positions, stl.indices, Some(stl.normals))
+    } else {
+        let ply = ply::load(path)?;
+        if !ply.unread.is_empty() {
+            let colours =
+                ply.unread.iter().any(|p| matches!(p.as_str(), "red" | "green" | "blue" | "r" | "g" | "b"));
+            warnings.push(format!(
+                "{name}: vertex properties caustix does not read were left out: {}{}",
+                ply.unread.join(", "),
+                if colours { " (the [[mesh]]'s material colours the whole mesh)" } else { "" }
+            ));
+        }
+        warnings.extend(ply.concave.map(|w| format!("{name}: {w}")));
+        (ply.positions, ply.indices, ply.normals)
+    };
+    let faces = indices.len();
+    let mesh = Mesh::new(name.clone(), positions, indices, normals, material);
     if mesh.indices.len() < faces {
         warnings.push(format!(
             "{name}: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",

@@ -10,6 +10,7 @@ pub mod obj;
 pub mod ply;
 pub mod polygon;
 pub mod shapes;
+pub mod stl;
 pub mod teapot;
 mod values;
 
@@ -35,6 +36,7 @@ pub use mesh::{Bounds, Mesh};
 enum NotAScene {
     Obj,
     Ply,
+    Stl,
     Patches,
     /// An image, by the name of its format.
     Image(&'static str),
@@ -48,6 +50,7 @@ impl NotAScene {
         match extension.as_str() {
             "obj" => Some(NotAScene::Obj),
             "ply" => Some(NotAScene::Ply),
+            "stl" => Some(NotAScene::Stl),
             "bpt" => Some(NotAScene::Patches),
             "exr" => Some(NotAScene::Image("an OpenEXR")),
             "png" => Some(NotAScene::Image("a PNG")),
@@ -82,16 +85,17 @@ impl NotAScene {
     }
 }
 
-/// Whether `path` is a mesh file a `[[mesh]]` reads (OBJ or PLY), by its
-/// name or a PLY header.
+/// Whether `path` is a mesh file a `[[mesh]]` reads (OBJ, PLY or STL), by
+/// its name or a PLY header.
 pub fn is_mesh_file(path: &Path) -> bool {
-    matches!(NotAScene::sniffed(path), Some(NotAScene::Obj | NotAScene::Ply))
+    matches!(NotAScene::sniffed(path), Some(NotAScene::Obj | NotAScene::Ply | NotAScene::Stl))
 }
 
 /// A mesh file read as a `[[mesh]]` reads it (PLY by its name or header,
-/// OBJ otherwise), in the file's own coordinates, its faces' materials
-/// chosen by `choice` (a PLY file, which has none, needs one given); the
-/// materials of its MTL files are numbered from 0.
+/// STL by its name, OBJ otherwise), in the file's own coordinates, its
+/// faces' materials chosen by `choice` (PLY and STL files, which have
+/// none, need one given); the materials of its MTL files are numbered
+/// from 0.
 pub fn load_mesh_file(path: &Path, choice: obj::MeshMaterials) -> Result<obj::ObjContents> {
     build::load_mesh_file(path, choice, 0)
 }
@@ -105,14 +109,12 @@ fn not_a_scene(path: &Path, kind: Option<NotAScene>) -> Option<Error> {
         path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
     let scene = "caustix renders scene files (TOML)";
     let message = match kind {
-        NotAScene::Obj | NotAScene::Ply | NotAScene::Patches => {
+        NotAScene::Obj | NotAScene::Ply | NotAScene::Stl | NotAScene::Patches => {
+            let mesh = format!("`[[mesh]]` with `file = \"{name}\"` and a `material`");
             let (what, entry) = match kind {
-                NotAScene::Obj => {
-                    ("a Wavefront OBJ mesh", format!("`[[mesh]]` with `file = \"{name}\"` and a `material`"))
-                }
-                NotAScene::Ply => {
-                    ("a PLY mesh", format!("`[[mesh]]` with `file = \"{name}\"` and a `material`"))
-                }
+                NotAScene::Obj => ("a Wavefront OBJ mesh", mesh),
+                NotAScene::Ply => ("a PLY mesh", mesh),
+                NotAScene::Stl => ("an STL mesh", mesh),
                 _ => ("a Bezier patch file (.bpt)", format!("`[[teapot]]` with `file = \"{name}\"`")),
             };
             let framing = match kind {

@@ -505,27 +505,17 @@ pub fn write_binary(
         positions.len(),
         indices.len()
     )?;
-    let mut record = Vec::with_capacity(1 << 20);
-    for (p, n) in positions.iter().zip(normals) {
+    crate::files::write_records(&mut out, positions.iter().zip(normals), |record, (p, n)| {
         for v in p.to_array().into_iter().chain(n.to_array()) {
             record.extend_from_slice(&v.to_le_bytes());
         }
-        if record.len() >= 1 << 20 {
-            out.write_all(&record)?;
-            record.clear();
-        }
-    }
-    for t in indices {
+    })?;
+    crate::files::write_records(&mut out, indices, |record, t| {
         record.push(3);
         for i in t {
             record.extend_from_slice(&i.to_le_bytes());
         }
-        if record.len() >= 1 << 20 {
-            out.write_all(&record)?;
-            record.clear();
-        }
-    }
-    out.write_all(&record)?;
+    })?;
     out.flush()
 }
 
