@@ -227,6 +227,8 @@ fn faces_without_a_material_take_the_meshes_default() {
     let before =
         "mtllib one.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\no first\nf 1 2 3\no second\nusemtl matte\nf 1 3 2\n";
     let unknown = "mtllib one.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\no first\nusemtl shiny\nf 1 2 3\no second\nusemtl matte\nf 1 3 2\n";
+    // (The second object's `usemtl` after the `mtllib` finds it.)
+    let late = "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl matte\no first\nf 1 2 3\nmtllib one.mtl\no second\nusemtl matte\nf 1 3 2\n";
     for (file, text, says) in [
         ("before.obj", before, "faces from line 6 come before the first `usemtl` (line 8)"),
         (
@@ -234,6 +236,7 @@ fn faces_without_a_material_take_the_meshes_default() {
             unknown,
             "`usemtl shiny` on line 6 names no material of its MTL files (they define matte)",
         ),
+        ("late.obj", late, "its `usemtl` on line 4 comes before the `mtllib` on line 7"),
     ] {
         write(dir.path(), file, text);
         let scene = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"{file}\"\n");

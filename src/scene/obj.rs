@@ -280,7 +280,17 @@ fn why_no_material(text: &str, mtl_names: &[String]) -> String {
         (None, Some(used), Some(face)) if face < used => {
             format!("its faces from line {face} come before the first `usemtl` (line {used}); {either}")
         }
-        _ => "the file names none (it has no `usemtl`); give the [[mesh]] a `material = \"...\"`".to_string(),
+        (None, None, _) => {
+            "the file names none (it has no `usemtl`); give the [[mesh]] a `material = \"...\"`".to_string()
+        }
+        // tobj knows a material only from the `mtllib` before its `usemtl`.
+        (None, Some(used), _) => match statements(text, "mtllib").next() {
+            Some((library, _)) if library > used => format!(
+                "its `usemtl` on line {used} comes before the `mtllib` on line {library}: move the `mtllib` \
+                 up, or {either}"
+            ),
+            _ => format!("some of its faces have none; {either}"),
+        },
     }
 }
 
