@@ -364,7 +364,7 @@ fn obj_faces_left_out_and_missing_materials_are_named() {
     write(dir.path(), "t.obj", obj);
     let camera = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\n";
     let own = write(dir.path(), "own.toml", &format!("{camera}[[mesh]]\nfile = \"t.obj\"\n"));
-    refused(&["info".as_ref(), own.as_os_str()], "missing.mtl: No such file");
+    refused(&["info".as_ref(), own.as_os_str()], "missing.mtl: MTL file not found (named by `mtllib` in");
     let given =
         format!("{camera}[materials.w]\ndiffuse = 0.5\n[[mesh]]\nfile = \"t.obj\"\nmaterial = \"w\"\n");
     let run = caustix(&["info".as_ref(), write(dir.path(), "given.toml", &given).as_os_str()]);
