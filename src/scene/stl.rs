@@ -15,6 +15,10 @@ use crate::error::{Error, Location, Result};
 /// could be anything; memory is taken as the data arrives).
 const MAX_RESERVE: usize = 1 << 22;
 
+/// The longest line of an ASCII STL file read (its longest statement,
+/// `vertex` and three numbers, takes well under a hundred bytes).
+const MAX_LINE: u64 = 1 << 16;
+
 /// A mesh read from an STL file: three vertices of its own per triangle.
 pub struct StlMesh {
     /// The corners, three a triangle; one spare slot is allocated after
@@ -80,20 +84,30 @@ fn read_binary(path: &Path, mut input: impl Read, count: u32) -> Result<StlMesh>
 
 /// The triangles of an ASCII STL file: every `vertex x y z` line, three to
 /// a facet (`facet ... endfacet`); any other line is read past.
-fn read_ascii(path: &Path, input: impl BufRead) -> Result<StlMesh> {
+fn read_ascii(path: &Path, mut input: impl BufRead) -> Result<StlMesh> {
     let mut mesh = StlMesh::with_capacity(0);
     let mut corners = Vec::with_capacity(3);
     let mut facet_line = 0;
-    for (i, line) in input.lines().enumerate() {
-        let line = line.map_err(|e| match e.kind() {
-            std::io::ErrorKind::InvalidData => Error::input_at(
-                path,
-                Location { line: i + 1, column: 1 },
-                "not UTF-8 text: neither a binary STL file (its size does not match its count) nor an ASCII one",
-            ),
-            _ => Error::io(path, e),
-        })?;
+    let mut bytes = Vec::new();
+    for i in 0.. {
         let at = |message: String| Error::input_at(path, Location { line: i + 1, column: 1 }, message);
+        // A line at most `MAX_LINE` long: a file of one endless line is
+        // not held in memory.
+        bytes.clear();
+        let read =
+            (&mut input).take(MAX_LINE).read_until(b'\n', &mut bytes).map_err(|e| Error::io(path, e))?;
+        if read == 0 {
+            break;
+        }
+        if read as u64 == MAX_LINE && !bytes.ends_with(b"\n") {
+            return Err(at(format!("a line longer than {MAX_LINE} bytes: not an ASCII STL file")));
+        }
+        let Ok(line) = std::str::from_utf8(&bytes) else {
+            return Err(at(
+                "not UTF-8 text: neither a binary STL file (its size does not match its count) nor an ASCII one"
+                    .into(),
+            ));
+        };
         let mut words = line.split_whitespace();
         match words.next() {
             Some("facet") => {
@@ -228,5 +242,9 @@ mod tests {
         let mut garbled = b"solid x\nfacet\n".to_vec();
         garbled.extend([0xff, 0xfe, b'\n']);
         assert!(err(&garbled).contains("t.stl:3:1: not UTF-8 text"));
+        let mut endless = b"solid x\n".to_vec();
+        endless.resize(1 << 20, b'x');
+        let e = err(&endless);
+        assert!(e.contains("t.stl:2:1: a line longer than 65536 bytes"), "{e}");
     }
 }
