@@ -419,7 +419,7 @@ impl<R: BufRead> DataReader<'_, R> {
     /// The triangles of a `tristrips` element's strips, added to
     /// `triangles`: each three vertices in a row of a strip, every other
     /// one turned to keep the strip's winding; an index of -1 starts a new
-    /// strip.
+    /// strip, and three in a row with one vertex twice make no triangle.
     fn strips(
         &mut self,
         element: &Element,
@@ -443,7 +443,11 @@ impl<R: BufRead> DataReader<'_, R> {
             for run in items.split(|&i| i == -1.0) {
                 for (k, w) in run.windows(3).enumerate() {
                     let [a, b, c] = [w[0] as u32, w[1] as u32, w[2] as u32];
-                    triangles.push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+                    // A repeated vertex joins strips on purpose: no triangle
+                    // (and no warning about one without area).
+                    if a != b && b != c && a != c {
+                        triangles.push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+                    }
                 }
             }
         }
@@ -544,14 +548,15 @@ mod tests {
         assert!(m.positions.capacity() > m.positions.len(), "room for Embree's padding");
     }
 
-    /// Strips turn every other triangle to keep one winding, and -1 starts
-    /// a new strip; strips and faces in one file both count.
+    /// Strips turn every other triangle to keep one winding, -1 starts a
+    /// new strip, a repeated vertex makes none; strips and faces in one
+    /// file both count.
     #[test]
     fn reads_triangle_strips() {
         let text = "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\n\
             property float z\nelement tristrips 1\nproperty list int int vertex_indices\n\
             element face 1\nproperty list uchar int vertex_indices\nend_header\n\
-            0 0 0\n0 1 0\n1 0 0\n1 1 0\n2 0 0\n2 1 0\n8 0 2 1 3 -1 3 4 5\n3 0 4 5\n";
+            0 0 0\n0 1 0\n1 0 0\n1 1 0\n2 0 0\n2 1 0\n10 0 2 1 3 3 3 -1 3 4 5\n3 0 4 5\n";
         let m = read_str(text.as_bytes()).unwrap();
         assert_eq!(m.indices, vec![[0, 2, 1], [1, 2, 3], [3, 4, 5], [0, 4, 5]]);
         // All three of the strips' triangles face the same way (+z).
@@ -559,7 +564,7 @@ mod tests {
             let [a, b, c] = t.map(|i| m.positions[i as usize]);
             assert!((b - a).cross(c - a).z > 0.0, "{t:?}");
         }
-        let bad = text.replace("8 0 2 1 3 -1 3 4 5", "3 0 2 9");
+        let bad = text.replace("10 0 2 1 3 3 3 -1 3 4 5", "3 0 2 9");
         let e = read_str(bad.as_bytes()).err().unwrap().to_string();
         assert!(e.contains("strip 1: vertex index 9 is not one of the 6 vertices"), "{e}");
     }
