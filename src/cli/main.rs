@@ -56,18 +56,18 @@ enum Command {
     /// that they come from one render and cover every pixel once.
     Merge(scale_out::MergeArgs),
     /// Print what a scene holds: triangles, vertices, bounds, materials,
-    /// lights. Given an OBJ or PLY mesh instead: its size and materials, and
+    /// lights. Given an OBJ, PLY or STL mesh instead: its size and materials, and
     /// a scene that frames it (`caustix info bunny.obj > bunny.toml`).
     Info {
         /// The scene file (or a mesh file).
         scene: PathBuf,
     },
     /// Write the scene's triangles, all meshes in one, as a mesh file:
-    /// binary PLY (fast to load) or OBJ, by the output's extension.
+    /// binary PLY (fast to load), OBJ or binary STL, by the output's extension.
     Export {
         /// The scene file.
         scene: PathBuf,
-        /// The mesh file to write (.ply or .obj).
+        /// The mesh file to write (.ply, .obj or .stl).
         #[arg(short, long)]
         output: PathBuf,
         /// Re-tessellate every teapot at this many quads per patch edge first
