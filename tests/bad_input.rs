@@ -175,12 +175,14 @@ fn mesh_image_or_photon_map_given_as_a_scene() {
     ply.extend([0xffu8, 0xfe, 0x00, 0x80]);
     let ply = common::write_bytes(dir.path(), "model.dat", &ply);
     let bpt = write(dir.path(), "pot.bpt", "1\n3 3\n");
+    let stl = common::write_bytes(dir.path(), "part.stl", &[0u8; 84]);
     let exr = common::write_bytes(dir.path(), "render.out", b"\x76\x2f\x31\x01\x02\x00\x00\x00\xff");
     let png = common::write_bytes(dir.path(), "render.png", b"\x89PNG\r\n\x1a\n\x00");
     let map = common::write_bytes(dir.path(), "maps.bin", b"CXPM\x01\x00\x00\x00\xff");
     for (path, what, entry) in [
         (&obj, "a Wavefront OBJ mesh", "`[[mesh]]` with `file = \"bunny.OBJ\"`"),
         (&ply, "a PLY mesh", "`[[mesh]]` with `file = \"model.dat\"`"),
+        (&stl, "an STL mesh", "`[[mesh]]` with `file = \"part.stl\"`"),
         (&bpt, "a Bezier patch file", "`[[teapot]]` with `file = \"pot.bpt\"`"),
         (&exr, "an OpenEXR image", "`caustix compare render.out REFERENCE`"),
         (&png, "a PNG image", "`caustix compare render.png REFERENCE`"),

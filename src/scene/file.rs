@@ -440,7 +440,8 @@ pub struct MeshSection {
     /// Overrides the file's MTL materials for every face.
     #[serde(default)]
     pub material: Option<Spanned<String>>,
-    /// The material of faces the file gives none (and of a PLY file's).
+    /// The material of faces the file gives none (and so of every face of
+    /// a PLY or STL file).
     #[serde(default)]
     pub default_material: Option<Spanned<String>>,
     #[serde(default)]
