@@ -246,12 +246,11 @@ impl Builder<'_> {
         let at = |center: Position| DMat4::from_translation(center.0);
         // The unit sphere of each level, made once: a scene of thousands of
         // spheres made each anew, and the making was most of its loading.
-        let mut unit_spheres: HashMap<u32, Mesh> = HashMap::new();
+        let mut unit_spheres = Reused::new(f.sphere.iter().map(|s| s.subdivisions));
         for (i, s) in f.sphere.iter().enumerate() {
-            let unit = unit_spheres
-                .entry(s.subdivisions)
-                .or_insert_with(|| shapes::sphere("unit sphere", Vec3::ZERO, 1.0, s.subdivisions, 0));
-            let mut m = unit.clone();
+            let level = s.subdivisions;
+            let mut m =
+                unit_spheres.take(level, || Ok(shapes::sphere("unit sphere", Vec3::ZERO, 1.0, level, 0)))?;
             (m.name, m.material) = (format!("sphere #{}", i + 1), lookup(&s.material)?);
             let size = DMat4::from_scale(DVec3::splat(s.radius.0 as f64));
             m.place(&(transform_matrix(&s.transform) * at(s.center) * size), self.origin);
@@ -366,51 +365,38 @@ impl Builder<'_> {
             entries.push((self.relative(m.file.get_ref()), choice));
         }
         // A file that several [[mesh]] place (one model in many places) is
-        // read once, its meshes kept for the others until the last.
-        let mut uses: HashMap<&(PathBuf, MeshMaterials), usize> = HashMap::new();
-        for entry in &entries {
-            *uses.entry(entry).or_default() += 1;
-        }
-        let mut kept: HashMap<&(PathBuf, MeshMaterials), Vec<Mesh>> = HashMap::new();
+        // read once.
+        let mut files = Reused::new(entries.iter());
         let mut obj_warnings = Vec::new();
         for (m, entry) in f.mesh.iter().zip(&entries) {
             let (obj_path, choice) = entry;
-            let left = uses.get_mut(entry).expect("every entry is counted");
-            *left -= 1;
-            let file_meshes = match kept.remove(entry) {
-                Some(file_meshes) => file_meshes,
-                None => {
-                    let contents =
-                        load_mesh_file(obj_path, *choice, materials.len()).map_err(|e| match e {
-                            // (The mesh file's own, not an MTL file's it names.)
-                            Error::Io { path, cause }
-                                if &path == obj_path && cause.kind() == std::io::ErrorKind::NotFound =>
-                            {
-                                self.error_at(
-                                    m.file.span(),
-                                    format!(
-                                        "mesh file `{}` not found (paths are relative to the scene file)",
-                                        obj_path.display()
-                                    ),
-                                )
-                            }
-                            other => other,
-                        })?;
-                    materials.extend(contents.materials);
-                    obj_warnings.extend(contents.warnings);
-                    if contents.meshes.iter().all(|mesh| mesh.indices.is_empty()) {
-                        obj_warnings.push(format!(
-                            "{}: no triangles (no face of three or more corners with an area): this \
-                             [[mesh]] adds nothing to the scene",
-                            obj_path.display()
-                        ));
+            let file_meshes = files.take(entry, || {
+                let contents = load_mesh_file(obj_path, *choice, materials.len()).map_err(|e| match e {
+                    // (The mesh file's own, not an MTL file's it names.)
+                    Error::Io { path, cause }
+                        if &path == obj_path && cause.kind() == std::io::ErrorKind::NotFound =>
+                    {
+                        self.error_at(
+                            m.file.span(),
+                            format!(
+                                "mesh file `{}` not found (paths are relative to the scene file)",
+                                obj_path.display()
+                            ),
+                        )
                     }
-                    contents.meshes
+                    other => other,
+                })?;
+                materials.extend(contents.materials);
+                obj_warnings.extend(contents.warnings);
+                if contents.meshes.iter().all(|mesh| mesh.indices.is_empty()) {
+                    obj_warnings.push(format!(
+                        "{}: no triangles (no face of three or more corners with an area): this \
+                         [[mesh]] adds nothing to the scene",
+                        obj_path.display()
+                    ));
                 }
-            };
-            if *left > 0 {
-                kept.insert(entry, file_meshes.clone());
-            }
+                Ok(contents.meshes)
+            })?;
             let matrix = transform_matrix(&m.transform);
             for mut mesh in file_meshes {
                 mesh.place(&matrix, self.origin);
@@ -489,6 +475,47 @@ fn transform_matrix(t: &file::TransformSection) -> DMat4 {
     DMat4::from_scale_rotation_translation(scale, rotation, t.translate.map_or(DVec3::ZERO, |v| v.0))
 }
 
+/// What several parts of a scene share, made once: each key's value is
+/// made at its first use, copied for the uses after it, and handed over
+/// whole at the last (so a value used once is never copied, and none is
+/// held after its last use).
+struct Reused<K, V> {
+    /// The uses of each key still to come.
+    left: HashMap<K, usize>,
+    /// The value of each key in use.
+    kept: HashMap<K, V>,
+}
+
+impl<K: std::hash::Hash + Eq + Clone, V: Clone> Reused<K, V> {
+    /// For the uses `keys`, in the order they will be taken.
+    fn new(keys: impl IntoIterator<Item = K>) -> Self {
+        let mut left = HashMap::new();
+        for key in keys {
+            *left.entry(key).or_default() += 1;
+        }
+        Reused { left, kept: HashMap::new() }
+    }
+
+    /// The value of `key` (made by `make` at its first use), for one of
+    /// the uses given to [`Reused::new`].
+    fn take<E>(
+        &mut self,
+        key: K,
+        make: impl FnOnce() -> std::result::Result<V, E>,
+    ) -> std::result::Result<V, E> {
+        let value = match self.kept.remove(&key) {
+            Some(value) => value,
+            None => make()?,
+        };
+        let left = self.left.get_mut(&key).expect("a use counted in `new`");
+        *left -= 1;
+        if *left > 0 {
+            self.kept.insert(key, value.clone());
+        }
+        Ok(value)
+    }
+}
+
 /// Meshes from an OBJ, PLY or STL file (PLY by its extension or its
 /// header, STL by its extension, OBJ otherwise). PLY and STL files have no
 /// materials, so their `[[mesh]]` must name one.
@@ -547,6 +574,37 @@ pub(super) fn load_mesh_file(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each key's value is made once, copied for the uses after the first
+    /// but the last (which takes it), and nothing is kept afterwards.
+    #[test]
+    fn reused_values_are_made_once_and_copied_only_while_needed() {
+        use std::cell::Cell;
+        thread_local!(static CLONES: Cell<usize> = const { Cell::new(0) });
+        #[derive(Debug, PartialEq)]
+        struct Counted(u32);
+        impl Clone for Counted {
+            fn clone(&self) -> Self {
+                CLONES.with(|c| c.set(c.get() + 1));
+                Counted(self.0)
+            }
+        }
+        let uses = ["a", "b", "a", "a"];
+        let mut reused = Reused::new(uses);
+        let mut made = 0;
+        for key in uses {
+            let value = reused
+                .take(key, || {
+                    made += 1;
+                    Ok::<_, ()>(Counted(made))
+                })
+                .unwrap();
+            assert_eq!(value, Counted(if key == "a" { 1 } else { 2 }));
+        }
+        assert_eq!(made, 2);
+        assert_eq!(CLONES.with(Cell::get), 2, "a's first two uses leave a copy; b's only use none");
+        assert!(reused.kept.is_empty());
+    }
 
     #[test]
     fn rotation_order_is_x_then_y_then_z() {
