@@ -291,7 +291,9 @@ mod tests {
 
     /// Meshes big enough to be worked on in parallel get what the calling
     /// thread alone gives: the same normals, triangles' normals and area,
-    /// bit for bit, as the same mesh cut into pieces each under the threshold.
+    /// bit for bit, as the same mesh cut into pieces of fewer triangles than
+    /// the threshold (each piece keeps all the vertices, so the work by
+    /// vertex, whose order cannot change the result, is parallel in both).
     #[test]
     fn big_meshes_in_parallel_match_small_ones_on_one_thread() {
         let (positions, indices) = height_field(160);

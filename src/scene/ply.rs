@@ -408,6 +408,29 @@ impl<R: BufRead> DataReader<'_, R> {
         Ok((positions, normals))
     }
 
+    /// An error unless each of `indices` is one of the `vertex_count`
+    /// vertices (a whole number from 0) or the value `other`, which the
+    /// error names after them; `record` says where ("face 3").
+    fn check_indices(
+        &self,
+        indices: &[f64],
+        vertex_count: usize,
+        other: Option<(f64, &str)>,
+        record: impl Fn() -> String,
+    ) -> Result<()> {
+        let valid = |i: f64| i >= 0.0 && i < vertex_count as f64 && i.fract() == 0.0;
+        let Some(bad) = indices.iter().find(|&&i| !valid(i) && other.is_none_or(|(value, _)| i != value))
+        else {
+            return Ok(());
+        };
+        Err(self.error(format!(
+            "{}: vertex index {bad} is not one of the {vertex_count} vertices (0 to {}){}",
+            record(),
+            vertex_count.saturating_sub(1),
+            other.map_or("", |(_, named)| named)
+        )))
+    }
+
     /// Which of `element`'s properties lists its vertex indices.
     fn index_list(&self, element: &Element) -> Result<usize> {
         let list = element.properties.iter().position(|p| {
@@ -431,15 +454,9 @@ impl<R: BufRead> DataReader<'_, R> {
         let mut items: Vec<f64> = Vec::new();
         for strip in 0..element.count {
             self.record(element, strip, &mut scalars, Some(list), &mut items)?;
-            let valid = |i: f64| i >= 0.0 && i < vertex_count as f64 && i.fract() == 0.0;
-            if let Some(bad) = items.iter().find(|&&i| !valid(i) && i != -1.0) {
-                return Err(self.error(format!(
-                    "strip {}: vertex index {bad} is not one of the {vertex_count} vertices (0 to {}) nor -1 \
-                     (a new strip)",
-                    strip + 1,
-                    vertex_count.saturating_sub(1)
-                )));
-            }
+            self.check_indices(&items, vertex_count, Some((-1.0, " nor -1 (a new strip)")), || {
+                format!("strip {}", strip + 1)
+            })?;
             for run in items.split(|&i| i == -1.0) {
                 for (k, w) in run.windows(3).enumerate() {
                     let [a, b, c] = [w[0] as u32, w[1] as u32, w[2] as u32];
@@ -473,14 +490,7 @@ impl<R: BufRead> DataReader<'_, R> {
                     corners.len()
                 )));
             }
-            let valid = |i: f64| i >= 0.0 && i < vertex_count as f64 && i.fract() == 0.0;
-            if let Some(bad) = corners.iter().find(|&&i| !valid(i)) {
-                return Err(self.error(format!(
-                    "face {}: vertex index {bad} is not one of the {vertex_count} vertices (0 to {})",
-                    face + 1,
-                    vertex_count.saturating_sub(1)
-                )));
-            }
+            self.check_indices(&corners, vertex_count, None, || format!("face {}", face + 1))?;
             polygon_corners.clear();
             polygon_corners.extend(corners.iter().map(|&i| i as u32));
             concave.count(

@@ -10,6 +10,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::error::{Error, Location, Result};
+use crate::numeric;
 
 /// Triangles reserved ahead of reading them at most (a header's count
 /// could be anything; memory is taken as the data arrives).
@@ -150,7 +151,7 @@ impl StlMesh {
     fn push(&mut self, corners: [Vec3; 3]) {
         let first = self.positions.len() as u32;
         let [a, b, c] = corners;
-        let normal = (b - a).cross(c - a).normalize_or_zero();
+        let normal = numeric::unit_cross(b - a, c - a).unwrap_or(Vec3::ZERO);
         self.positions.extend(corners);
         self.normals.extend([normal; 3]);
         self.indices.push([first, first + 1, first + 2]);
@@ -171,7 +172,7 @@ pub fn write_binary(mut out: impl Write, positions: &[Vec3], indices: &[[u32; 3]
     out.write_all(&header)?;
     crate::files::write_records(&mut out, indices, |record, t| {
         let [a, b, c] = t.map(|i| positions[i as usize]);
-        let normal = (b - a).cross(c - a).normalize_or_zero();
+        let normal = numeric::unit_cross(b - a, c - a).unwrap_or(Vec3::ZERO);
         for v in [normal, a, b, c] {
             v.to_array().iter().for_each(|x| record.extend_from_slice(&x.to_le_bytes()));
         }
