@@ -26,16 +26,6 @@ pub enum MeshMaterials {
     },
 }
 
-impl MeshMaterials {
-    /// The material every face takes, if one does.
-    fn all(self) -> Option<usize> {
-        match self {
-            MeshMaterials::All(id) => Some(id),
-            MeshMaterials::FromFile { .. } => None,
-        }
-    }
-}
-
 /// Meshes read from an OBJ file, and the materials its MTL file defined.
 pub struct ObjContents {
     /// One mesh per OBJ object/group; `material` indexes into `materials`
@@ -57,7 +47,11 @@ pub fn load(path: &Path, choice: MeshMaterials, first_material: usize) -> Result
     crate::files::check_regular(path)?;
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let text = logical_lines(&text);
-    let material_override = choice.all();
+    // The material of every face, or of those the file gives none.
+    let (material_override, fallback) = match choice {
+        MeshMaterials::All(id) => (Some(id), None),
+        MeshMaterials::FromFile { fallback } => (None, fallback),
+    };
     // Polygons come whole: tobj would fan them, wrongly where concave
     // (`polygon::triangulate`).
     let options = tobj::LoadOptions { triangulate: false, single_index: true, ..Default::default() };
@@ -116,10 +110,6 @@ pub fn load(path: &Path, choice: MeshMaterials, first_material: usize) -> Result
             });
         }
     }
-    let fallback = match choice {
-        MeshMaterials::All(_) => None,
-        MeshMaterials::FromFile { fallback } => fallback,
-    };
     let mut mtl_names = Vec::new();
     let materials = match (mtl, material_override) {
         (Ok(list), None) => {
