@@ -112,10 +112,6 @@ fn cli_size_flags_override_the_scene() {
     assert_eq!(image::open(&out).unwrap().to_rgb8().dimensions(), (20, 10));
 }
 
-/// A point light in a glass bulb lights the quad only through the glass:
-/// the path tracer and Whitted render it black, and say so before they
-/// start; the integrators that carry the light say nothing; `info` gives
-/// the share.
 /// What the CLI prints rendering `scene` with `integrator` at 16 x 16 and a
 /// sample a pixel into `out`; the render must succeed.
 fn small_render_stderr(scene: &Path, integrator: &str, out: &Path) -> String {
@@ -126,26 +122,52 @@ fn small_render_stderr(scene: &Path, integrator: &str, out: &Path) -> String {
     String::from_utf8_lossy(&run.stderr).into_owned()
 }
 
+/// A point light in a glass bulb lights the quad only through the glass:
+/// the path tracer and Whitted render it black, and say so before they
+/// start. With the bulb in view, bidirectional path tracing leaves out the
+/// quad seen through the glass, and light tracing all that is seen in it;
+/// with the bulb behind the camera they carry everything and say nothing.
+/// The integrators that carry all of it say nothing; `info` gives the
+/// shares.
 #[test]
 fn cli_warns_when_the_integrator_leaves_out_a_lights_light_through_glass() {
     let dir = tempfile::tempdir().unwrap();
-    let bulb = "[materials.glass]\ntransmittance = 1.0\n[[sphere]]\ncenter = [0, 0, 4]\nradius = 0.3\nmaterial = \"glass\"\n";
-    let scene = write(dir.path(), "bulb.toml", &format!("{QUAD_SCENE}\n{bulb}"));
-    let out = dir.path().join("bulb.png");
-    let run_with = |integrator: &str| small_render_stderr(&scene, integrator, &out);
-    for integrator in ["path", "whitted"] {
-        let stderr = run_with(integrator);
-        assert!(
-            stderr.contains(
-                "100.0% of the scene's light goes from point or spot lights straight to mirrors or glass"
-            ) && stderr.contains(&format!("the {integrator} integrator leaves all of it out")),
-            "{stderr}"
+    let bulb_at = |z: f32| {
+        let bulb = format!(
+            "[materials.glass]\ntransmittance = 1.0\n[[sphere]]\ncenter = [0, 0, {z}]\nradius = 0.3\nmaterial = \"glass\"\n"
         );
+        let scene = QUAD_SCENE.replace("position = [0, 0, 4]", &format!("position = [0, 0, {z}]"));
+        write(dir.path(), &format!("bulb-{z}.toml"), &format!("{scene}\n{bulb}"))
+    };
+    let (seen, behind) = (bulb_at(4.0), bulb_at(5.5));
+    let out = dir.path().join("bulb.png");
+    let through_glass =
+        "100.0% of the scene's light goes from point or spot lights straight to mirrors or glass";
+    for scene in [&seen, &behind] {
+        for integrator in ["path", "whitted"] {
+            let stderr = small_render_stderr(scene, integrator, &out);
+            let leaves_out = format!("the {integrator} integrator leaves all of it out");
+            assert!(stderr.contains(through_glass) && stderr.contains(&leaves_out), "{stderr}");
+        }
+        for integrator in ["sppm", "vcm", "photon"] {
+            assert!(!small_render_stderr(scene, integrator, &out).contains("warning"), "{integrator}");
+        }
     }
-    assert!(!run_with("sppm").contains("warning"));
-    let info = caustix(&["info".as_ref(), scene.as_os_str()]);
+    let bdpt = small_render_stderr(&seen, "bdpt", &out);
+    let bdpt_leaves =
+        "the bdpt integrator leaves that light out where it is seen in a mirror or through glass";
+    assert!(bdpt.contains(through_glass) && bdpt.contains(bdpt_leaves), "{bdpt}");
+    let light = small_render_stderr(&seen, "light", &out);
+    assert!(light.contains("the light integrator leaves out all that is seen in them"), "{light}");
+    for integrator in ["bdpt", "light"] {
+        assert!(!small_render_stderr(&behind, integrator, &out).contains("warning"), "{integrator}");
+    }
+    let info = caustix(&["info".as_ref(), seen.as_os_str()]);
     let stdout = String::from_utf8_lossy(&info.stdout);
     assert!(stdout.contains("caustics  100.0% of the light goes from point or spot lights"), "{stdout}");
+    assert!(stdout.contains("of the view is mirrors or glass"), "{stdout}");
+    let info = caustix(&["info".as_ref(), behind.as_os_str()]);
+    assert!(!String::from_utf8_lossy(&info.stdout).contains("of the view"));
 }
 
 /// A scene with lights that renders black (here its light is shut inside a

@@ -299,9 +299,12 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     };
 
     let (pool, accel) = pool_and_accel(threads, &scene, &settings)?;
-    if caustix::integrator::create(settings.integrator).misses_point_light_caustics() {
+    if let Some(unreached) = caustix::integrator::create(settings.integrator).unreached() {
         let query = caustix::query::SceneQuery::new(&scene, accel.as_ref());
-        if let Some(w) = caustix::integrator::unreached::warning(&query, settings.integrator.name()) {
+        let size = (settings.width, settings.height);
+        if let Some(w) =
+            caustix::integrator::unreached::warning(&query, size, settings.integrator.name(), unreached)
+        {
             eprintln!("warning: {}: {w}", scene_path.display());
         }
     }

@@ -200,8 +200,16 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
     if share > 0.0 {
         outln!(
             "caustics  {:.1}% of the light goes from point or spot lights straight to mirrors or glass (path and \
-             whitted leave it out)",
+             whitted leave it out, bdpt where it is seen in them)",
             100.0 * share
+        );
+    }
+    let (width, height) = (scene.config.width, scene.config.height);
+    let view = caustix::integrator::unreached::share_of_view_in_mirrors(&query, width, height);
+    if view > 0.0 {
+        outln!(
+            "mirrors   {:.1}% of the view is mirrors or glass (light tracing leaves out what is seen in them)",
+            100.0 * view
         );
     }
     Ok(())

@@ -152,11 +152,10 @@ pub trait Integrator: Sync {
         false
     }
 
-    /// Whether it reaches point and spot lights only by shadow rays, so
-    /// that what they send to mirrors or through glass is missing from its
-    /// image ([`unreached`]).
-    fn misses_point_light_caustics(&self) -> bool {
-        false
+    /// The light it cannot carry however many samples it takes, if any
+    /// ([`unreached`]).
+    fn unreached(&self) -> Option<unreached::Unreached> {
+        None
     }
 
     /// Whether each pixel is computed from its own camera samples alone

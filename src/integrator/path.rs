@@ -16,6 +16,7 @@ use glam::Vec3;
 
 use super::direct::{direct_light, LightSamples, LightSampling};
 use super::pixels::{average_over_pixel, render_pixels};
+use super::unreached::Unreached;
 use super::{Context, Integrator, Progress, Rendered};
 use crate::accel::Ray;
 use crate::bsdf::{russian_roulette, Bsdf};
@@ -31,8 +32,9 @@ impl Integrator for PathTracer {
         true
     }
 
-    fn misses_point_light_caustics(&self) -> bool {
-        true
+    /// It reaches point and spot lights only by shadow rays.
+    fn unreached(&self) -> Option<Unreached> {
+        Some(Unreached::FromPointLightsThroughMirrors)
     }
 
     fn pixels_sample_alone(&self) -> bool {

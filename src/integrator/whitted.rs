@@ -12,6 +12,7 @@ use glam::Vec3;
 
 use super::direct::{direct_light, LightSampling};
 use super::pixels::{average_over_pixel, render_pixels};
+use super::unreached::Unreached;
 use super::{Context, Integrator, Progress, Rendered};
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
@@ -32,8 +33,9 @@ impl Integrator for Whitted {
         true
     }
 
-    fn misses_point_light_caustics(&self) -> bool {
-        true
+    /// It reaches point and spot lights only by shadow rays.
+    fn unreached(&self) -> Option<Unreached> {
+        Some(Unreached::FromPointLightsThroughMirrors)
     }
 
     fn pixels_sample_alone(&self) -> bool {

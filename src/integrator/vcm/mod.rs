@@ -37,6 +37,7 @@ use super::direct::{LightSamples, LightSampling};
 use super::path::PathClass;
 use super::pixels::render_pixels;
 use super::to_camera::CameraView;
+use super::unreached::Unreached;
 use super::{Context, Integrator, Progress, Rendered, SampleRange};
 use crate::accel::Ray;
 use crate::bsdf::Bsdf;
@@ -323,6 +324,16 @@ impl Integrator for Vcm {
 
     fn refines_by_samples(&self) -> bool {
         true
+    }
+
+    /// Merging carries every path; without it, a path whose every segment
+    /// has a mirror or glass end (or a point light's) is never made.
+    fn unreached(&self) -> Option<Unreached> {
+        match self.0 {
+            Mode::VertexMerging => None,
+            Mode::Bidirectional => Some(Unreached::FromPointLightsSeenInMirrors),
+            Mode::LightTracing => Some(Unreached::SeenInMirrors),
+        }
     }
 
     /// Pass `i` of the render is camera sample `i` of every pixel, with its
