@@ -53,6 +53,12 @@ impl Material {
         self.mirror.max_element() > 0.0 || self.transmittance.max_element() > 0.0
     }
 
+    /// Whether part of it is a dielectric: the only part for which the side
+    /// a ray meets it from (its inside or outside) matters.
+    pub fn refracts(&self) -> bool {
+        self.transmittance.max_element() > 0.0
+    }
+
     /// Whether the material has a non-delta part that direct light and photon
     /// estimates act on (diffuse or glossy).
     pub fn is_glossy_or_diffuse(&self) -> bool {

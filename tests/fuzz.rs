@@ -176,8 +176,8 @@ proptest! {
                     vn 0 0 1\nusemtl red\nf 1 2 3 4\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3//1 4//1 8//1\nf 4 1 5 8\n";
         let path = dir.path().join("fuzzed.obj");
         std::fs::write(&path, apply(text.as_bytes(), &edits)).unwrap();
-        let _ = obj::load(&path, obj::MeshMaterials::FromFile { fallback: None }, 0);
-        let _ = obj::load(&path, obj::MeshMaterials::All(0), 0);
+        let _ = obj::load(&path, obj::MeshMaterials::FromFile { fallback: None }, &[]);
+        let _ = obj::load(&path, obj::MeshMaterials::All(0), &[]);
     }
 
     #[test]
@@ -237,7 +237,7 @@ fn regressions() {
     std::fs::write(dir.path().join("m.mtl"), "newmtl red\nKd 0.8 0.0\n").unwrap();
     let obj = dir.path().join("t.obj");
     std::fs::write(&obj, "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n").unwrap();
-    let err = obj::load(&obj, obj::MeshMaterials::FromFile { fallback: None }, 0)
+    let err = obj::load(&obj, obj::MeshMaterials::FromFile { fallback: None }, &[])
         .err()
         .expect("an error, not a panic")
         .to_string();

@@ -32,7 +32,7 @@ struct Case {
 
 fn bunny() -> Mesh {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/data/bunny.obj");
-    let contents = caustix::scene::obj::load(&path, caustix::scene::obj::MeshMaterials::All(0), 0).unwrap();
+    let contents = caustix::scene::obj::load(&path, caustix::scene::obj::MeshMaterials::All(0), &[]).unwrap();
     contents.meshes.into_iter().next().unwrap()
 }
 

@@ -11,6 +11,7 @@ use toml::Spanned;
 
 use super::obj::MeshMaterials;
 use super::values::Position;
+use super::winding::{self, Normals};
 use super::{file, obj, ply, shapes, stl, teapot, Camera, Mesh, Overrides, Scene};
 use crate::config::limits::{MAX_DISTANCE, MIN_EXTENT};
 use crate::config::{PhotonConfig, RenderConfig, SppmConfig};
@@ -371,7 +372,7 @@ impl Builder<'_> {
         for (m, entry) in f.mesh.iter().zip(&entries) {
             let (obj_path, choice) = entry;
             let file_meshes = files.take(entry, || {
-                let contents = load_mesh_file(obj_path, *choice, materials.len()).map_err(|e| match e {
+                let contents = load_mesh_file(obj_path, *choice, materials).map_err(|e| match e {
                     // (The mesh file's own, not an MTL file's it names.)
                     Error::Io { path, cause }
                         if &path == obj_path && cause.kind() == std::io::ErrorKind::NotFound =>
@@ -516,19 +517,25 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Reused<K, V> {
     }
 }
 
+/// Whether material `id` of `materials` refracts (a number not there, as
+/// `caustix info`'s stand-in, is no glass).
+fn is_glass(materials: &[Material], id: usize) -> bool {
+    materials.get(id).is_some_and(Material::refracts)
+}
+
 /// Meshes from an OBJ, PLY or STL file (PLY by its extension or its
 /// header, STL by its extension, OBJ otherwise). PLY and STL files have no
 /// materials, so their `[[mesh]]` must name one.
 pub(super) fn load_mesh_file(
     path: &Path,
     choice: MeshMaterials,
-    first_material: usize,
+    scene_materials: &[Material],
 ) -> Result<obj::ObjContents> {
     let kind = super::NotAScene::sniffed(path);
     let format = match kind {
         Some(super::NotAScene::Ply) => "PLY",
         Some(super::NotAScene::Stl) => "STL",
-        _ => return obj::load(path, choice, first_material),
+        _ => return obj::load(path, choice, scene_materials),
     };
     let (material, defaulted) = match choice {
         MeshMaterials::All(id) => (id, false),
@@ -543,7 +550,8 @@ pub(super) fn load_mesh_file(
     let name = path.file_name().map_or_else(|| format.to_lowercase(), |n| n.to_string_lossy().into_owned());
     let mut warnings = Vec::new();
     let (positions, indices, normals) = if kind == Some(super::NotAScene::Stl) {
-        let stl = stl::load(path)?;
+        let mut stl = stl::load(path)?;
+        warnings.extend(stl.orient(is_glass(scene_materials, material)).warnings(&name, stl.indices.len()));
         (stl.positions, stl.indices, Some(stl.normals))
     } else {
         let ply = ply::load(path)?;
@@ -557,7 +565,13 @@ pub(super) fn load_mesh_file(
             ));
         }
         warnings.extend(ply.concave.map(|w| format!("{name}: {w}")));
-        (ply.positions, ply.indices, ply.normals)
+        let mut indices = ply.indices;
+        let normals = ply.normals.as_deref().map_or(Normals::Smooth, Normals::FromFile);
+        let glass = is_glass(scene_materials, material);
+        warnings.extend(
+            winding::orient(&ply.positions, &mut indices, normals, glass).warnings(&name, indices.len()),
+        );
+        (ply.positions, indices, ply.normals)
     };
     let faces = indices.len();
     let mesh = Mesh::new(name.clone(), positions, indices, normals, material);

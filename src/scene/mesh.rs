@@ -196,7 +196,7 @@ fn pad_for_embree(mut positions: Vec<Vec3>) -> Vec<Vec3> {
 
 /// The unit normal along `(p1 - p0) x (p2 - p0)`, the counter-clockwise side;
 /// `None` for a triangle of no area. Exact at any scale (see [`numeric`]).
-fn face_normal(positions: &[Vec3], [i0, i1, i2]: [u32; 3]) -> Option<Vec3> {
+pub(super) fn face_normal(positions: &[Vec3], [i0, i1, i2]: [u32; 3]) -> Option<Vec3> {
     let p0 = positions[i0 as usize];
     numeric::unit_cross(positions[i1 as usize] - p0, positions[i2 as usize] - p0)
 }

@@ -13,6 +13,7 @@ pub mod shapes;
 pub mod stl;
 pub mod teapot;
 mod values;
+pub mod winding;
 
 #[cfg(test)]
 pub(crate) mod test_scenes;
@@ -97,7 +98,7 @@ pub fn is_mesh_file(path: &Path) -> bool {
 /// none, need one given); the materials of its MTL files are numbered
 /// from 0.
 pub fn load_mesh_file(path: &Path, choice: obj::MeshMaterials) -> Result<obj::ObjContents> {
-    build::load_mesh_file(path, choice, 0)
+    build::load_mesh_file(path, choice, &[])
 }
 
 /// The error for a file given where a scene file belongs (`caustix render

@@ -9,6 +9,7 @@ use glam::Vec3;
 
 use super::mesh::Mesh;
 use super::polygon::{self, Concave};
+use super::winding::{self, Normals};
 use crate::error::{Error, Location, Result};
 use crate::material::Material;
 
@@ -28,8 +29,8 @@ pub enum MeshMaterials {
 
 /// Meshes read from an OBJ file, and the materials its MTL file defined.
 pub struct ObjContents {
-    /// One mesh per OBJ object/group; `material` indexes into `materials`
-    /// offset by `first_material` (see [`load`]).
+    /// One mesh per OBJ object/group; `material` indexes the scene's
+    /// materials and then `materials` (see [`load`]).
     pub meshes: Vec<Mesh>,
     /// Materials from the MTL file, in the file's order.
     pub materials: Vec<Material>,
@@ -40,10 +41,11 @@ pub struct ObjContents {
     pub defaulted: Vec<String>,
 }
 
-/// Loads `path`, its faces' materials chosen by `choice`; the file's MTL
-/// materials are numbered from `first_material` (where the caller will
-/// append `materials`).
-pub fn load(path: &Path, choice: MeshMaterials, first_material: usize) -> Result<ObjContents> {
+/// Loads `path`, its faces' materials chosen by `choice` (whose numbers
+/// index `scene_materials`); the file's MTL materials are numbered after
+/// `scene_materials` (where the caller will append `materials`).
+pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) -> Result<ObjContents> {
+    let first_material = scene_materials.len();
     crate::files::check_regular(path)?;
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let text = logical_lines(&text);
@@ -149,12 +151,15 @@ pub fn load(path: &Path, choice: MeshMaterials, first_material: usize) -> Result
         let normals = (m.normals.len() == m.positions.len() && !m.normals.is_empty())
             .then(|| m.normals.chunks_exact(3).map(Vec3::from_slice).collect());
         let name = format!("{file_name}:{}", model.name);
-        let material = match (material_override, m.material_id, fallback) {
-            (Some(id), _, _) => id,
-            (None, Some(id), _) if id < materials.len() => first_material + id,
+        // (A number `choice` gave that is not in `scene_materials`, as
+        // `caustix info`'s stand-in, is no glass.)
+        let scene_glass = |id: usize| scene_materials.get(id).is_some_and(Material::refracts);
+        let (material, glass) = match (material_override, m.material_id, fallback) {
+            (Some(id), _, _) => (id, scene_glass(id)),
+            (None, Some(id), _) if id < materials.len() => (first_material + id, materials[id].refracts()),
             (None, _, Some(id)) => {
                 defaulted.push(name.clone());
-                id
+                (id, scene_glass(id))
             }
             (None, _, None) => {
                 let why = why_no_material(&text, &mtl_names);
@@ -162,6 +167,10 @@ pub fn load(path: &Path, choice: MeshMaterials, first_material: usize) -> Result
             }
         };
         let faces = indices.len();
+        let mut indices = indices;
+        let as_normals = normals.as_deref().map_or(Normals::Smooth, Normals::FromFile);
+        let turned = winding::orient(&positions, &mut indices, as_normals, glass);
+        warnings.extend(turned.warnings(&format!("{file_name}: object `{}`", model.name), faces));
         let mesh = Mesh::new(name, positions, indices, normals, material);
         if mesh.indices.len() < faces {
             warnings.push(format!(
@@ -610,11 +619,11 @@ mod tests {
         let path = dir.path().join("bad.obj");
         let text = "# a comment\nv 0 0 0\nv 1 0 0 # a comment\nv nan 1 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\n";
         std::fs::write(&path, text).unwrap();
-        let message = load(&path, MeshMaterials::All(0), 0).err().expect("a NaN vertex in use").to_string();
+        let message = load(&path, MeshMaterials::All(0), &[]).err().expect("a NaN vertex in use").to_string();
         assert!(message.contains("bad.obj:4:1: vertex 3 is not finite"), "{message}");
         // Overflowing `f32` counts too; a non-finite vertex no face uses does not matter.
         assert_eq!(first_non_finite_vertex("v 0 0 0\nvn 0 0 1\nv 1e39 0 0\n"), Some((3, 2)));
         std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv inf 0 0\nf 1 2 3\n").unwrap();
-        assert!(load(&path, MeshMaterials::All(0), 0).is_ok());
+        assert!(load(&path, MeshMaterials::All(0), &[]).is_ok());
     }
 }

@@ -9,6 +9,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
+use super::winding::{self, Normals, Turned};
 use crate::error::{Error, Location, Result};
 use crate::numeric;
 
@@ -138,6 +139,19 @@ fn read_ascii(path: &Path, mut input: impl BufRead) -> Result<StlMesh> {
 }
 
 impl StlMesh {
+    /// For glass, turns the triangles that wind against their neighbours,
+    /// and closed parts that wind inward ([`winding::orient`]), with their
+    /// normals.
+    pub fn orient(&mut self, glass: bool) -> Turned {
+        let turned = winding::orient(&self.positions, &mut self.indices, Normals::Flat, glass);
+        for (k, tri) in self.indices.iter().enumerate() {
+            if tri[1] as usize != 3 * k + 1 {
+                self.normals[3 * k..3 * k + 3].iter_mut().for_each(|n| *n = -*n);
+            }
+        }
+        turned
+    }
+
     fn with_capacity(triangles: usize) -> StlMesh {
         let triangles = triangles.min(MAX_RESERVE);
         StlMesh {
@@ -247,5 +261,36 @@ mod tests {
         endless.resize(1 << 20, b'x');
         let e = err(&endless);
         assert!(e.contains("t.stl:2:1: a line longer than 65536 bytes"), "{e}");
+    }
+
+    /// A tetrahedron wound inward, each triangle with corners of its own:
+    /// as glass its triangles turn outward, and their normals with them.
+    #[test]
+    fn glass_turns_outward_with_its_normals() {
+        let [a, b, c, d] = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+        let mut stl = StlMesh::with_capacity(4);
+        for corners in [[a, b, c], [a, d, b], [a, c, d], [b, d, c]] {
+            stl.push(corners);
+        }
+        let centre = Vec3::splat(0.25);
+        let outward = |stl: &StlMesh| {
+            (0..4).all(|k| {
+                let [i, _, _] = stl.indices[k];
+                stl.normals[3 * k..3 * k + 3].iter().all(|n| n.dot(stl.positions[i as usize] - centre) > 0.0)
+            })
+        };
+        let inward =
+            |stl: &StlMesh| (0..4).all(|k| stl.normals[3 * k].dot(stl.positions[3 * k] - centre) < 0.0);
+        assert!(inward(&stl));
+        let before = stl.indices.clone();
+        assert_eq!(stl.orient(false), Turned::default());
+        assert_eq!(stl.indices, before);
+        assert_eq!(stl.orient(true).inward_triangles, 4);
+        assert!(outward(&stl));
+        // Each triangle's normal is the one its new winding gives.
+        for (k, [i, j, l]) in stl.indices.iter().enumerate() {
+            let [p, q, r] = [i, j, l].map(|&v| stl.positions[v as usize]);
+            assert_eq!(stl.normals[3 * k], numeric::unit_cross(q - p, r - p).unwrap());
+        }
     }
 }

@@ -1,0 +1,498 @@
+//! Which way a mesh file's triangles wind, made to mean one side.
+//!
+//! A triangle's winding (counter-clockwise seen from the front) decides
+//! which side of a glass surface is inside, and the smooth normals caustix
+//! works out for files without any are averages of the triangles' own
+//! normals. Files do not always wind their triangles one way: exporters
+//! and scans leave a part, or every other triangle, turned. Glass then
+//! comes out as a bubble (inside out) or shattered, and smooth normals of
+//! neighbours that disagree cancel (a diffuse sphere comes out speckled).
+//! So before a file's mesh is made:
+//!
+//! - where smooth normals are to be worked out (a file without vertex
+//!   normals), each connected part winds as most of its triangles do,
+//!   every triangle as the neighbours it shares an edge with;
+//! - for glass, a closed part also winds outward (its signed volume
+//!   positive), and where the file gives vertex normals each triangle
+//!   winds to face the side its corners' normals point to (as pbrt-v4
+//!   faces a triangle's geometric normal with its shading normal).
+//!
+//! Elsewhere the winding changes nothing in the image (surfaces that are
+//! not glass look the same from both sides), and the file's is kept. What
+//! is turned is reported; a file that winds one way is left as it is.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use super::mesh::face_normal;
+
+/// The normals a file's mesh will shade with.
+pub enum Normals<'a> {
+    /// The file's own vertex normals.
+    FromFile(&'a [Vec3]),
+    /// Smooth normals to be worked out from the triangles.
+    Smooth,
+    /// Each triangle's own (STL).
+    Flat,
+}
+
+/// What [`orient`] turned.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct Turned {
+    /// Triangles turned to face their corners' normals.
+    pub against_normals: usize,
+    /// Triangles turned to agree with the neighbours they share edges with.
+    pub against_neighbours: usize,
+    /// Closed parts that wound inward, turned outward...
+    pub inward_parts: usize,
+    /// ... and the triangles that turned in them.
+    pub inward_triangles: usize,
+    /// Triangles of parts no winding can agree over (one-sided, as a Möbius
+    /// strip), left as they were.
+    pub one_sided: usize,
+}
+
+impl Turned {
+    /// The warnings for a mesh file named `name`, one for each kind of turn.
+    pub fn warnings(&self, name: &str, triangles: usize) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.against_normals > 0 {
+            out.push(format!(
+                "{name}: {} of its {triangles} triangles wind against the file's vertex normals and were turned to \
+                 face them (the side a glass surface has inside)",
+                self.against_normals
+            ));
+        }
+        if self.against_neighbours > 0 {
+            out.push(format!(
+                "{name}: {} of its {triangles} triangles wind against their neighbours and were turned to agree \
+                 (glass and smooth normals need one winding)",
+                self.against_neighbours
+            ));
+        }
+        if self.inward_parts > 0 {
+            out.push(format!(
+                "{name}: {} closed part(s) wind inward (clockwise seen from outside); {} triangles were turned so \
+                 that they wind outward and glass has its inside inside",
+                self.inward_parts, self.inward_triangles
+            ));
+        }
+        if self.one_sided > 0 {
+            out.push(format!(
+                "{name}: {} triangles form one-sided surfaces (no winding agrees all round) and were left as they are",
+                self.one_sided
+            ));
+        }
+        out
+    }
+}
+
+/// Turns the triangles `indices` over `positions` of a mesh that will
+/// shade with `normals` and is glass or not, as the module says (a
+/// triangle turns by swapping its last two corners). Triangles of no area
+/// keep their winding.
+pub fn orient(positions: &[Vec3], indices: &mut [[u32; 3]], normals: Normals, glass: bool) -> Turned {
+    match (normals, glass) {
+        (Normals::FromFile(normals), true) => {
+            let turn = |t: &[u32; 3]| {
+                let [p0, p1, p2] = t.map(|i| positions[i as usize].as_dvec3());
+                let face = (p1 - p0).cross(p2 - p0);
+                let corners: DVec3 = t.iter().map(|&i| normals[i as usize].as_dvec3()).sum();
+                face.dot(corners) < 0.0
+            };
+            let turned = indices.iter().filter(|t| turn(t)).count();
+            if turned > 0 {
+                indices.iter_mut().filter(|t| turn(t)).for_each(|t| t.swap(1, 2));
+            }
+            Turned { against_normals: turned, ..Turned::default() }
+        }
+        (Normals::Smooth, outward) | (Normals::Flat, outward @ true) => coherent(positions, indices, outward),
+        (Normals::FromFile(_) | Normals::Flat, false) => Turned::default(),
+    }
+}
+
+/// Each part of `indices` wound as most of its triangles, every triangle
+/// as its neighbours; closed parts `outward`, if asked.
+fn coherent(positions: &[Vec3], indices: &mut [[u32; 3]], outward: bool) -> Turned {
+    // (A triangle's index and a bit share a `u32` below.)
+    if indices.len() >= 1 << 31 {
+        return Turned::default();
+    }
+    let n = indices.len();
+    let (shared, open) = shared_edges(positions, &welded(positions), indices);
+    // A file that winds one way, as most do, is done here, unless its
+    // closed parts must be found.
+    if !outward && shared.iter().all(|&(_, _, same)| !same) {
+        return Turned::default();
+    }
+    // Each triangle's links, from `first_link[t]` to `first_link[t + 1]`.
+    let mut first_link = vec![0u32; n + 1];
+    for &(a, b, _) in &shared {
+        first_link[a as usize + 1] += 1;
+        first_link[b as usize + 1] += 1;
+    }
+    for i in 0..n {
+        first_link[i + 1] += first_link[i];
+    }
+    let mut filled = first_link.clone();
+    let mut links = vec![(0u32, false); 2 * shared.len()];
+    for &(a, b, same) in &shared {
+        for (from, to) in [(a, b), (b, a)] {
+            links[filled[from as usize] as usize] = (to, same);
+            filled[from as usize] += 1;
+        }
+    }
+    drop(shared);
+
+    let mut turned = Turned::default();
+    let mut turn = vec![false; n];
+    let mut part_of = vec![u32::MAX; n];
+    let mut part = Vec::new();
+    for start in 0..n {
+        if part_of[start] != u32::MAX {
+            continue;
+        }
+        // Each part from its lowest triangle, which keeps its winding; the
+        // others as their neighbours ask.
+        part.clear();
+        part.push(start as u32);
+        part_of[start] = start as u32;
+        let (mut next, mut agrees, mut closed) = (0, true, true);
+        while next < part.len() {
+            let t = part[next] as usize;
+            next += 1;
+            closed &= !open[t];
+            for &(u, same) in &links[first_link[t] as usize..first_link[t + 1] as usize] {
+                let u = u as usize;
+                let wanted = turn[t] ^ same;
+                if part_of[u] == u32::MAX {
+                    part_of[u] = start as u32;
+                    turn[u] = wanted;
+                    part.push(u as u32);
+                } else if turn[u] != wanted {
+                    agrees = false;
+                }
+            }
+        }
+        if !agrees {
+            part.iter().for_each(|&t| turn[t as usize] = false);
+            turned.one_sided += part.len();
+            continue;
+        }
+        // Most of an open part's triangles keep their winding; a closed
+        // part winds outward.
+        let turning = |turn: &[bool]| part.iter().filter(|&&t| turn[t as usize]).count();
+        let flip_all = if closed && outward {
+            signed_volume(positions, indices, &part, &turn) < 0.0
+        } else {
+            2 * turning(&turn) > part.len()
+        };
+        if flip_all {
+            part.iter().for_each(|&t| turn[t as usize] ^= true);
+        }
+        let turned_here = turning(&turn);
+        if closed && outward && 2 * turned_here > part.len() {
+            turned.inward_parts += 1;
+            turned.inward_triangles += turned_here;
+        } else {
+            turned.against_neighbours += turned_here;
+        }
+    }
+    for (t, turn) in indices.iter_mut().zip(turn) {
+        if turn {
+            t.swap(1, 2);
+        }
+    }
+    turned
+}
+
+/// For each vertex, the lowest index of a vertex at exactly its place:
+/// files repeat a corner where its normal or texture coordinates change
+/// (and STL files every corner), yet the triangles meet there.
+fn welded(positions: &[Vec3]) -> Vec<u32> {
+    // (`+ 0.0` makes -0 and 0 one place.)
+    let key = |p: Vec3| (p + Vec3::ZERO).to_array().map(f32::to_bits);
+    let mut order: Vec<([u32; 3], u32)> =
+        positions.par_iter().enumerate().map(|(i, &p)| (key(p), i as u32)).collect();
+    order.par_sort_unstable();
+    let mut corner = vec![0u32; positions.len()];
+    let mut first = 0;
+    for (k, &(place, i)) in order.iter().enumerate() {
+        if place != order[first].0 {
+            first = k;
+        }
+        corner[i as usize] = order[first].1;
+    }
+    corner
+}
+
+/// The edges that two triangles share, each once: the two triangles, and
+/// whether they run along it the same way (then one of them must turn);
+/// and which triangles have an edge of their own or one of more than two
+/// triangles (their part is open). Corners are `corner`'s welded ones;
+/// triangles of no area, which [`Mesh::new`](super::mesh::Mesh::new)
+/// drops, take no part.
+fn shared_edges(
+    positions: &[Vec3],
+    corner: &[u32],
+    indices: &[[u32; 3]],
+) -> (Vec<(u32, u32, bool)>, Vec<bool>) {
+    // Each edge is listed under its lower corner, with its higher corner
+    // and its triangle's index times two, plus one where the triangle runs
+    // along it from the higher corner: a bucket sort, each bucket a
+    // vertex's few edges.
+    let has_area: Vec<bool> = indices.par_iter().map(|&tri| face_normal(positions, tri).is_some()).collect();
+    let edges_of = |t: usize| {
+        let (c, has_area) = (indices[t].map(|i| corner[i as usize]), has_area[t]);
+        (0..3).map(move |k| (c[k], c[(k + 1) % 3])).filter(move |&(a, b)| has_area && a != b)
+    };
+    let mut first = vec![0u32; corner.len() + 1];
+    for t in 0..indices.len() {
+        edges_of(t).for_each(|(a, b)| first[a.min(b) as usize + 1] += 1);
+    }
+    for v in 0..corner.len() {
+        first[v + 1] += first[v];
+    }
+    let mut filled = first.clone();
+    let mut under = vec![(0u32, 0u32); first[corner.len()] as usize];
+    for t in 0..indices.len() {
+        for (a, b) in edges_of(t) {
+            let low = a.min(b) as usize;
+            under[filled[low] as usize] = (a.max(b), ((t as u32) << 1) | u32::from(a > b));
+            filled[low] += 1;
+        }
+    }
+    let (mut shared, mut open) = (Vec::new(), vec![false; indices.len()]);
+    for v in 0..corner.len() {
+        let bucket = &mut under[first[v] as usize..first[v + 1] as usize];
+        bucket.sort_unstable();
+        for run in bucket.chunk_by(|x, y| x.0 == y.0) {
+            if let [(_, a), (_, b)] = *run {
+                shared.push((a >> 1, b >> 1, (a & 1) == (b & 1)));
+            } else {
+                run.iter().for_each(|&(_, t)| open[(t >> 1) as usize] = true);
+            }
+        }
+    }
+    (shared, open)
+}
+
+/// Six times the volume a closed part encloses, positive where its
+/// triangles (as `turn` leaves them) wind counter-clockwise seen from
+/// outside: the sum of the tetrahedra from its first corner to each
+/// triangle, in `f64`.
+fn signed_volume(positions: &[Vec3], indices: &[[u32; 3]], part: &[u32], turn: &[bool]) -> f64 {
+    let origin = positions[indices[part[0] as usize][0] as usize].as_dvec3();
+    part.iter()
+        .map(|&t| {
+            let [p0, p1, p2] = indices[t as usize].map(|i| positions[i as usize].as_dvec3() - origin);
+            let v = p0.dot(p1.cross(p2));
+            if turn[t as usize] {
+                -v
+            } else {
+                v
+            }
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube's corners and its 12 triangles, each counter-clockwise
+    /// seen from outside.
+    fn cube() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let corners = (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32));
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let triangles = quads.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]).collect();
+        (corners.collect(), triangles)
+    }
+
+    fn turned(t: [u32; 3]) -> [u32; 3] {
+        [t[0], t[2], t[1]]
+    }
+
+    fn volume(positions: &[Vec3], indices: &[[u32; 3]]) -> f64 {
+        let part: Vec<u32> = (0..indices.len() as u32).collect();
+        signed_volume(positions, indices, &part, &vec![false; indices.len()])
+    }
+
+    #[test]
+    fn the_cube_winds_outward() {
+        let (p, t) = cube();
+        assert!((volume(&p, &t) - 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_mesh_that_winds_one_way_is_left_as_it_is() {
+        let (p, t) = cube();
+        let inward: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
+        for glass in [false, true] {
+            let mut same = t.clone();
+            assert_eq!(orient(&p, &mut same, Normals::Smooth, glass), Turned::default());
+            assert_eq!(same, t);
+        }
+        // Inward, but not glass: the winding changes nothing seen.
+        let mut same = inward.clone();
+        assert_eq!(orient(&p, &mut same, Normals::Smooth, false), Turned::default());
+        assert_eq!(same, inward);
+    }
+
+    #[test]
+    fn a_closed_glass_part_that_winds_inward_turns_outward() {
+        let (p, t) = cube();
+        let mut inward: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
+        let done = orient(&p, &mut inward, Normals::Smooth, true);
+        assert_eq!(done, Turned { inward_parts: 1, inward_triangles: 12, ..Turned::default() });
+        assert_eq!(inward, t);
+        // Also with three of them outward already: 9 turn, in one part.
+        let mut mixed: Vec<[u32; 3]> =
+            t.iter().enumerate().map(|(i, &t)| if i.is_multiple_of(4) { t } else { turned(t) }).collect();
+        let done = orient(&p, &mut mixed, Normals::Smooth, true);
+        assert_eq!(done, Turned { inward_parts: 1, inward_triangles: 9, ..Turned::default() });
+        assert_eq!(mixed, t);
+    }
+
+    #[test]
+    fn triangles_against_their_neighbours_turn_to_agree() {
+        let (p, t) = cube();
+        for glass in [false, true] {
+            let mut mixed: Vec<[u32; 3]> =
+                t.iter().enumerate().map(|(i, &t)| if i.is_multiple_of(4) { turned(t) } else { t }).collect();
+            let done = orient(&p, &mut mixed, Normals::Smooth, glass);
+            assert_eq!(done, Turned { against_neighbours: 3, ..Turned::default() }, "glass {glass}");
+            assert_eq!(mixed, t);
+        }
+        // Flat normals (STL) turn nothing unless glass.
+        let mut mixed: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
+        mixed[0] = t[0];
+        let before = mixed.clone();
+        assert_eq!(orient(&p, &mut mixed, Normals::Flat, false), Turned::default());
+        assert_eq!(mixed, before);
+        assert_eq!(orient(&p, &mut mixed, Normals::Flat, true).inward_triangles, 11);
+        assert_eq!(mixed, t);
+    }
+
+    /// Corners repeated (as STL files and OBJ files with texture seams
+    /// have them) are one corner where they are at one place.
+    #[test]
+    fn repeated_corners_at_one_place_are_one() {
+        let (p, t) = cube();
+        let positions: Vec<Vec3> = t.iter().flat_map(|tri| tri.map(|i| p[i as usize])).collect();
+        let own: Vec<[u32; 3]> = (0..12).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+        let mut inward: Vec<[u32; 3]> = own.iter().map(|&t| turned(t)).collect();
+        assert_eq!(orient(&positions, &mut inward, Normals::Flat, true).inward_parts, 1);
+        assert_eq!(inward, own);
+        // -0 and 0 are one place.
+        let mut signed = positions.clone();
+        signed.iter_mut().filter(|p| p.x == 0.0).for_each(|p| p.x = -0.0);
+        let mut inward: Vec<[u32; 3]> = own.iter().map(|&t| turned(t)).collect();
+        assert_eq!(orient(&signed, &mut inward, Normals::Flat, true).inward_parts, 1);
+    }
+
+    #[test]
+    fn open_parts_keep_the_winding_of_most_of_their_triangles() {
+        // A 4 x 4 grid of squares in z = 0, facing -z, 5 of 32 turned; a
+        // part that is not closed has no outside to face.
+        let p: Vec<Vec3> = (0..25).map(|i| Vec3::new((i % 5) as f32, (i / 5) as f32, 0.0)).collect();
+        let t: Vec<[u32; 3]> = (0..16)
+            .flat_map(|q| {
+                let c = (q / 4) * 5 + q % 4;
+                [[c, c + 5, c + 1], [c + 1, c + 5, c + 6]]
+            })
+            .collect();
+        let mut mixed: Vec<[u32; 3]> =
+            t.iter().enumerate().map(|(i, &t)| if i % 7 == 3 { turned(t) } else { t }).collect();
+        for glass in [false, true] {
+            let mut m = mixed.clone();
+            assert_eq!(
+                orient(&p, &mut m, Normals::Smooth, glass),
+                Turned { against_neighbours: 5, ..Turned::default() }
+            );
+            assert_eq!(m, t);
+        }
+        // Most turned: the others turn to them.
+        mixed.iter_mut().for_each(|t| *t = turned(*t));
+        let mut m = mixed.clone();
+        assert_eq!(orient(&p, &mut m, Normals::Smooth, true).against_neighbours, 5);
+        assert_eq!(m, t.iter().map(|&t| turned(t)).collect::<Vec<_>>());
+    }
+
+    /// A triangle of no area on an edge of the cube, and a fourth triangle
+    /// on another edge: the first is no neighbour, the second opens the
+    /// part (three triangles on one edge have no outside to agree on).
+    #[test]
+    fn triangles_of_no_area_take_no_part_and_edges_of_three_open_a_part() {
+        let (mut p, t) = cube();
+        let mut inward: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
+        inward.push([0, 1, 1]);
+        let done = orient(&p, &mut inward, Normals::Smooth, true);
+        assert_eq!((done.inward_parts, done.inward_triangles), (1, 12));
+        assert_eq!(inward[12], [0, 1, 1]);
+        p.push(Vec3::new(0.5, -1.0, 0.5));
+        let mut fin: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
+        fin.push([0, 1, 8]);
+        let before = fin.clone();
+        assert_eq!(orient(&p, &mut fin, Normals::Smooth, true), Turned::default());
+        assert_eq!(fin, before);
+    }
+
+    #[test]
+    fn a_one_sided_strip_is_left_as_it_is() {
+        // A Möbius strip of 12 quads: its two long edges join turned.
+        let n = 12;
+        let at = |k: u32, side: f32| {
+            let a = std::f32::consts::TAU * k as f32 / n as f32;
+            let w = side * 0.3;
+            let r = 1.0 + w * (0.5 * a).cos();
+            Vec3::new(r * a.cos(), r * a.sin(), w * (0.5 * a).sin())
+        };
+        let p: Vec<Vec3> = (0..n).flat_map(|k| [at(k, -1.0), at(k, 1.0)]).collect();
+        let t: Vec<[u32; 3]> = (0..n)
+            .flat_map(|k| {
+                let (a, b) = (2 * k, 2 * k + 1);
+                // The last quad joins the first with its sides swapped.
+                let (c, d) = if k + 1 == n { (1, 0) } else { (2 * k + 2, 2 * k + 3) };
+                [[a, c, b], [b, c, d]]
+            })
+            .collect();
+        let mut m = t.clone();
+        assert_eq!(orient(&p, &mut m, Normals::Smooth, true), Turned { one_sided: 24, ..Turned::default() });
+        assert_eq!(m, t);
+    }
+
+    #[test]
+    fn glass_faces_the_files_normals() {
+        let (p, t) = cube();
+        // Each corner's normal points out from the cube's centre.
+        let normals: Vec<Vec3> = p.iter().map(|&q| q - Vec3::splat(0.5)).collect();
+        let mut mixed: Vec<[u32; 3]> =
+            t.iter().enumerate().map(|(i, &t)| if i.is_multiple_of(3) { turned(t) } else { t }).collect();
+        let before = mixed.clone();
+        assert_eq!(orient(&p, &mut mixed, Normals::FromFile(&normals), false), Turned::default());
+        assert_eq!(mixed, before);
+        let done = orient(&p, &mut mixed, Normals::FromFile(&normals), true);
+        assert_eq!(done, Turned { against_normals: 4, ..Turned::default() });
+        assert_eq!(mixed, t);
+    }
+
+    #[test]
+    fn the_warnings_say_what_turned() {
+        let all = Turned {
+            against_normals: 1,
+            against_neighbours: 2,
+            inward_parts: 3,
+            inward_triangles: 4,
+            one_sided: 5,
+        };
+        let w = all.warnings("m.obj", 9);
+        assert_eq!(w.len(), 4);
+        assert!(w[0].starts_with("m.obj: 1 of its 9 triangles wind against the file's vertex normals"));
+        assert!(w[1].starts_with("m.obj: 2 of its 9 triangles wind against their neighbours"));
+        assert!(w[2].starts_with("m.obj: 3 closed part(s) wind inward"), "{}", w[2]);
+        assert!(w[2].contains("4 triangles were turned"));
+        assert!(w[3].starts_with("m.obj: 5 triangles form one-sided surfaces"));
+        assert!(Turned::default().warnings("m.obj", 9).is_empty());
+    }
+}
