@@ -112,7 +112,13 @@ fn bunny_loads_closed_with_outward_normals() {
     );
     let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
     let bunny = scene.meshes.last().unwrap();
-    assert_eq!((bunny.positions.len(), bunny.indices.len()), (1839, 3674));
+    // Its 1,839 vertices, some copied where it folds by more than the
+    // crease angle (a normal for each side: `scene::creases`).
+    let mut places: Vec<[u32; 3]> = bunny.positions.iter().map(|p| p.to_array().map(f32::to_bits)).collect();
+    places.sort_unstable();
+    places.dedup();
+    assert_eq!((places.len(), bunny.indices.len()), (1839, 3674));
+    assert!(bunny.positions.len() - 1839 < 100, "{} copies", bunny.positions.len() - 1839);
     // Signed volume (divergence theorem) is positive for outward winding:
     // 194.29 in the file's units, times 0.5^3 after the transform.
     let volume: f32 = bunny
@@ -448,5 +454,103 @@ fn mesh_files_wound_inward_or_every_which_way_render_as_wound_outward() {
                 }
             }
         }
+    }
+}
+
+/// A box from an OBJ file without normals shades flat, as the built-in
+/// `[[box]]` does: its faces meet at creases, which smooth normals do not
+/// cross. (Averaged over all the triangles at each corner, its normals
+/// pointed along the diagonals and each face shaded as a blob.)
+#[test]
+fn a_box_from_a_file_without_normals_shades_as_the_built_in_box() {
+    let dir = tempfile::tempdir().unwrap();
+    let cube = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\n\
+                f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+    write(dir.path(), "cube.obj", cube);
+    let scene_with = |name: &str, object: &str| {
+        let text = format!(
+            "[camera]\neye = [2.5, 2.2, 3.0]\nlook_at = [0.5, 0.4, 0.5]\nfov = 35\n\
+             [image]\nwidth = 48\nheight = 36\nsamples = 1\n[render]\nintegrator = \"whitted\"\n\
+             [materials.m]\ndiffuse = 0.7\n[[point_light]]\nposition = [3, 5, 2]\npower = 300\n{object}"
+        );
+        Scene::load(&write(dir.path(), name, &text)).unwrap()
+    };
+    let from_file = scene_with("file.toml", "[[mesh]]\nfile = \"cube.obj\"\nmaterial = \"m\"\n");
+    let built_in = scene_with("box.toml", "[[box]]\ncenter = [0.5, 0.5, 0.5]\nsize = 1\nmaterial = \"m\"\n");
+    assert_eq!(from_file.meshes[0].positions.len(), 24, "each corner a vertex per face");
+    let image = |scene: &Scene| {
+        let accel = caustix::accel::build(caustix::accel::Backend::Embree, &scene.triangle_views()).unwrap();
+        caustix::render(scene, accel.as_ref(), &scene.config, &|_| {}).unwrap().film.beauty()
+    };
+    let (a, b) = (image(&from_file), image(&built_in));
+    let lit = b.pixels.iter().filter(|p| p.max_element() > 0.0).count();
+    assert!(lit > 300, "the box is in view: {lit} pixels");
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        assert!(
+            (*p - *q).abs().max_element() <= 1e-5 * q.max_element().max(1.0),
+            "pixel {i}: {p} against {q}"
+        );
+    }
+}
+
+/// A hollow glass box as two OBJ objects: the outer surface wound outward,
+/// the inner one into the cavity. As it is, nothing turns; mirrored (every
+/// face reversed, as a mirrored export leaves it), the whole file turns
+/// back, the cavity with it, and says so once.
+#[test]
+fn a_hollow_glass_box_in_two_objects_turns_as_one_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let quads = [[1, 3, 4, 2], [5, 6, 8, 7], [1, 2, 6, 5], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]];
+    let mut obj = String::from("o outer\n");
+    for i in 0..8 {
+        obj += &format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
+    }
+    quads.iter().for_each(|[a, b, c, d]| obj += &format!("f {a} {b} {c} {d}\n"));
+    obj += "o inner\n";
+    for i in 0..8 {
+        let at = |bit: i32| 0.25 + 0.5 * ((i >> bit) & 1) as f32;
+        obj += &format!("v {} {} {}\n", at(0), at(1), at(2));
+    }
+    quads.iter().for_each(|[a, b, c, d]| obj += &format!("f {} {} {} {}\n", d + 8, c + 8, b + 8, a + 8));
+    let mirrored: String = obj
+        .lines()
+        .map(|line| match line.strip_prefix("f ") {
+            Some(corners) => {
+                format!("f {}\n", corners.split_whitespace().rev().collect::<Vec<_>>().join(" "))
+            }
+            None => format!("{line}\n"),
+        })
+        .collect();
+    write(dir.path(), "hollow.obj", &obj);
+    write(dir.path(), "mirrored.obj", &mirrored);
+    let scene_of = |file: &str| {
+        let text = format!(
+            "{QUAD_SCENE}\n[materials.glass]\ntransmittance = 1.0\n[[mesh]]\nfile = \"{file}\"\nmaterial = \"glass\"\n"
+        );
+        Scene::load(&write(dir.path(), "s.toml", &text)).unwrap()
+    };
+    let (hollow, turned) = (scene_of("hollow.obj"), scene_of("mirrored.obj"));
+    assert!(hollow.warnings.is_empty(), "{:?}", hollow.warnings);
+    assert_eq!(turned.warnings.len(), 1, "{:?}", turned.warnings);
+    assert!(turned.warnings[0].contains("mirrored.obj: its closed glass parts enclose a negative volume"));
+    assert!(
+        turned.warnings[0].contains("all 24 of its glass triangles were turned"),
+        "{}",
+        turned.warnings[0]
+    );
+    // Each object's signed volume (positive wound outward): the outer
+    // box's 1, the cavity's -1/8, in both (the mirrored file's quads split
+    // along their other diagonals).
+    let volumes = |scene: &Scene| {
+        let origin = common::in_scene(scene, Vec3::ZERO);
+        let volume = |m: &caustix::scene::mesh::Mesh| {
+            let corner = |i: u32| (m.positions[i as usize] - origin).as_dvec3();
+            m.indices.iter().map(|t| corner(t[0]).dot(corner(t[1]).cross(corner(t[2]))) / 6.0).sum::<f64>()
+        };
+        scene.meshes.iter().skip(1).map(volume).collect::<Vec<f64>>()
+    };
+    for scene in [&hollow, &turned] {
+        let v = volumes(scene);
+        assert!((v[0] - 1.0).abs() < 1e-5 && (v[1] + 0.125).abs() < 1e-5, "{v:?}");
     }
 }

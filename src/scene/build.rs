@@ -568,13 +568,20 @@ pub(super) fn load_mesh_file(
         let mut indices = ply.indices;
         let normals = ply.normals.as_deref().map_or(Normals::Smooth, Normals::FromFile);
         let glass = is_glass(scene_materials, material);
-        warnings.extend(
-            winding::orient(&ply.positions, &mut indices, normals, glass).warnings(&name, indices.len()),
-        );
+        let mut turned = winding::orient(&ply.positions, &mut indices, normals, glass);
+        if turned.enclosed < 0.0 {
+            turned.inside_out = winding::turn_inside_out(&mut indices);
+        }
+        warnings.extend(turned.warnings(&name, indices.len()));
         (ply.positions, indices, ply.normals)
     };
     let faces = indices.len();
-    let mesh = Mesh::new(name.clone(), positions, indices, normals, material);
+    // (STL's flat normals come with the file; PLY's are the file's own, or
+    // smooth with creases.)
+    let mesh = match normals {
+        Some(normals) => Mesh::new(name.clone(), positions, indices, Some(normals), material),
+        None => Mesh::with_creases(name.clone(), positions, indices, material).0,
+    };
     if mesh.indices.len() < faces {
         warnings.push(format!(
             "{name}: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",

@@ -4,6 +4,7 @@
 use glam::{DMat3, DMat4, DVec3, Vec3};
 use rayon::prelude::*;
 
+use super::creases;
 use crate::accel::embree::TriangleView;
 pub use crate::bounds::Bounds;
 use crate::numeric;
@@ -79,8 +80,35 @@ impl Mesh {
             Some(n) => n.into_iter().map(|n| numeric::unit(n).unwrap_or(Vec3::ZERO)).collect(),
             None => vertex_normals(&positions, &indices),
         };
+        Mesh::assembled(name.into(), positions, indices, normals, material)
+    }
+
+    /// A mesh from a file's positions and triangles, without normals of
+    /// its own: smooth normals kept apart across creases
+    /// ([`creases::creased`]); and how many vertices that copied.
+    pub fn with_creases(
+        name: impl Into<String>,
+        positions: Vec<Vec3>,
+        indices: Vec<[u32; 3]>,
+        material: usize,
+    ) -> (Mesh, usize) {
+        debug_assert!(indices.iter().flatten().all(|&i| (i as usize) < positions.len()));
+        let creased = creases::creased(positions, indices);
+        let mesh =
+            Mesh::assembled(name.into(), creased.positions, creased.indices, creased.normals, material);
+        (mesh, creased.added)
+    }
+
+    /// The mesh of triangles of some area, and their normals.
+    fn assembled(
+        name: String,
+        positions: Vec<Vec3>,
+        indices: Vec<[u32; 3]>,
+        normals: Vec<Vec3>,
+        material: usize,
+    ) -> Mesh {
         let mut mesh = Mesh {
-            name: name.into(),
+            name,
             positions: pad_for_embree(positions),
             normals,
             indices,
@@ -230,7 +258,7 @@ pub fn vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
 
 /// The face's unit normal times its angle at each corner (zero for a
 /// degenerate face).
-fn corner_normals(positions: &[Vec3], tri: [u32; 3]) -> [Vec3; 3] {
+pub(super) fn corner_normals(positions: &[Vec3], tri: [u32; 3]) -> [Vec3; 3] {
     let Some(face) = face_normal(positions, tri) else {
         return [Vec3::ZERO; 3];
     };
@@ -243,11 +271,12 @@ fn corner_normals(positions: &[Vec3], tri: [u32; 3]) -> [Vec3; 3] {
 }
 
 /// For each vertex, a slot shared by all vertices at its bit-identical
-/// position. Found by sorting (in parallel) rather than hashing: a sorted
-/// list of 16-byte keys takes less memory than a hash map of them.
-fn position_slots(positions: &[Vec3]) -> Vec<u32> {
+/// position (-0 and 0 are one: files print both). Found by sorting (in
+/// parallel) rather than hashing: a sorted list of 16-byte keys takes less
+/// memory than a hash map of them.
+pub(super) fn position_slots(positions: &[Vec3]) -> Vec<u32> {
     let mut keyed: Vec<([u32; 3], u32)> =
-        map_all(positions, |i, p| (p.to_array().map(f32::to_bits), i as u32));
+        map_all(positions, |i, &p| ((p + Vec3::ZERO).to_array().map(f32::to_bits), i as u32));
     // (Each key holds its vertex: no two are equal, so either sort gives one order.)
     if keyed.len() < PARALLEL_FROM {
         keyed.sort_unstable();
@@ -383,6 +412,12 @@ mod tests {
         let n = vertex_normals(&p, &tris);
         assert!(n[0].abs_diff_eq(n[3], 1e-6));
         assert!(n[1].abs_diff_eq(n[5], 1e-6));
+        // The same with the second origin written -0 (as files print it).
+        let mut q = p.clone();
+        q[3] = -Vec3::ZERO;
+        let m = vertex_normals(&q, &tris);
+        assert_eq!(m[3], n[3]);
+        assert_eq!(m[0], m[3]);
     }
 
     #[test]

@@ -4,6 +4,7 @@
 
 mod build;
 pub mod camera;
+pub mod creases;
 mod file;
 pub mod mesh;
 pub mod obj;

@@ -122,7 +122,19 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         _ => Vec::new(),
     };
 
-    let mut meshes = Vec::with_capacity(models.len());
+    // Each object's triangles, turned as `winding` says, before its mesh is
+    // made.
+    struct Object {
+        model: String,
+        name: String,
+        positions: Vec<Vec3>,
+        indices: Vec<[u32; 3]>,
+        normals: Option<Vec<Vec3>>,
+        material: usize,
+        glass: bool,
+    }
+    let mut objects = Vec::with_capacity(models.len());
+    let mut enclosed = 0.0;
     let mut defaulted = Vec::new();
     let mut concave = Concave::default();
     for model in models {
@@ -166,16 +178,30 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
                 return Err(Error::input(path, format!("object `{}` has no material: {why}", model.name)));
             }
         };
-        let faces = indices.len();
         let mut indices = indices;
         let as_normals = normals.as_deref().map_or(Normals::Smooth, Normals::FromFile);
         let turned = winding::orient(&positions, &mut indices, as_normals, glass);
-        warnings.extend(turned.warnings(&format!("{file_name}: object `{}`", model.name), faces));
-        let mesh = Mesh::new(name, positions, indices, normals, material);
+        warnings.extend(turned.warnings(&format!("{file_name}: object `{}`", model.name), indices.len()));
+        enclosed += turned.enclosed;
+        objects.push(Object { model: model.name, name, positions, indices, normals, material, glass });
+    }
+    // Which way the glass winds is the whole file's to say (`winding`): a
+    // hollow ball may be two objects.
+    if enclosed < 0.0 {
+        let turned: usize =
+            objects.iter_mut().filter(|o| o.glass).map(|o| winding::turn_inside_out(&mut o.indices)).sum();
+        warnings.push(winding::inside_out_warning(&file_name, turned));
+    }
+    let mut meshes = Vec::with_capacity(objects.len());
+    for Object { model, name, positions, indices, normals, material, .. } in objects {
+        let faces = indices.len();
+        let mesh = match normals {
+            Some(normals) => Mesh::new(name, positions, indices, Some(normals), material),
+            None => Mesh::with_creases(name, positions, indices, material).0,
+        };
         if mesh.indices.len() < faces {
             warnings.push(format!(
-                "{file_name}: object `{}`: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",
-                model.name,
+                "{file_name}: object `{model}`: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",
                 faces - mesh.indices.len()
             ));
         }

@@ -140,10 +140,13 @@ fn read_ascii(path: &Path, mut input: impl BufRead) -> Result<StlMesh> {
 
 impl StlMesh {
     /// For glass, turns the triangles that wind against their neighbours,
-    /// and closed parts that wind inward ([`winding::orient`]), with their
+    /// and the whole mesh if it winds inside out ([`winding`]), with their
     /// normals.
     pub fn orient(&mut self, glass: bool) -> Turned {
-        let turned = winding::orient(&self.positions, &mut self.indices, Normals::Flat, glass);
+        let mut turned = winding::orient(&self.positions, &mut self.indices, Normals::Flat, glass);
+        if turned.enclosed < 0.0 {
+            turned.inside_out = winding::turn_inside_out(&mut self.indices);
+        }
         for (k, tri) in self.indices.iter().enumerate() {
             if tri[1] as usize != 3 * k + 1 {
                 self.normals[3 * k..3 * k + 3].iter_mut().for_each(|n| *n = -*n);
@@ -285,7 +288,7 @@ mod tests {
         let before = stl.indices.clone();
         assert_eq!(stl.orient(false), Turned::default());
         assert_eq!(stl.indices, before);
-        assert_eq!(stl.orient(true).inward_triangles, 4);
+        assert_eq!(stl.orient(true).inside_out, 4);
         assert!(outward(&stl));
         // Each triangle's normal is the one its new winding gives.
         for (k, [i, j, l]) in stl.indices.iter().enumerate() {

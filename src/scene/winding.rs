@@ -12,10 +12,15 @@
 //! - where smooth normals are to be worked out (a file without vertex
 //!   normals), each connected part winds as most of its triangles do,
 //!   every triangle as the neighbours it shares an edge with;
-//! - for glass, a closed part also winds outward (its signed volume
-//!   positive), and where the file gives vertex normals each triangle
-//!   winds to face the side its corners' normals point to (as pbrt-v4
-//!   faces a triangle's geometric normal with its shading normal).
+//! - for glass, where the file gives vertex normals, each triangle winds to
+//!   face the side its corners' normals point to (as pbrt-v4 faces a
+//!   triangle's geometric normal with its shading normal);
+//! - for glass without normals, a file whose closed parts enclose a
+//!   negative volume in all (wound clockwise seen from outside, as a
+//!   mirrored export leaves them) is turned whole. Whole, not part by
+//!   part: a hollow glass ball's inner surface rightly winds into its
+//!   cavity, and it is the sum, not each part, that says which way the
+//!   file means.
 //!
 //! Elsewhere the winding changes nothing in the image (surfaces that are
 //! not glass look the same from both sides), and the file's is kept. What
@@ -24,7 +29,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::mesh::face_normal;
+use super::mesh::{face_normal, position_slots};
 
 /// The normals a file's mesh will shade with.
 pub enum Normals<'a> {
@@ -36,20 +41,22 @@ pub enum Normals<'a> {
     Flat,
 }
 
-/// What [`orient`] turned.
-#[derive(Debug, Default, PartialEq, Eq)]
+/// What [`orient`] turned, and what it measured.
+#[derive(Debug, Default, PartialEq)]
 pub struct Turned {
     /// Triangles turned to face their corners' normals.
     pub against_normals: usize,
     /// Triangles turned to agree with the neighbours they share edges with.
     pub against_neighbours: usize,
-    /// Closed parts that wound inward, turned outward...
-    pub inward_parts: usize,
-    /// ... and the triangles that turned in them.
-    pub inward_triangles: usize,
     /// Triangles of parts no winding can agree over (one-sided, as a Möbius
     /// strip), left as they were.
     pub one_sided: usize,
+    /// For glass without normals: six times the volume the closed parts
+    /// enclose as they wind after the turns (negative where they wind
+    /// inward; 0 without a closed part).
+    pub enclosed: f64,
+    /// Triangles turned with the whole file ([`turn_inside_out`]).
+    pub inside_out: usize,
 }
 
 impl Turned {
@@ -70,12 +77,8 @@ impl Turned {
                 self.against_neighbours
             ));
         }
-        if self.inward_parts > 0 {
-            out.push(format!(
-                "{name}: {} closed part(s) wind inward (clockwise seen from outside); {} triangles were turned so \
-                 that they wind outward and glass has its inside inside",
-                self.inward_parts, self.inward_triangles
-            ));
+        if self.inside_out > 0 {
+            out.push(inside_out_warning(name, self.inside_out));
         }
         if self.one_sided > 0 {
             out.push(format!(
@@ -85,6 +88,22 @@ impl Turned {
         }
         out
     }
+}
+
+/// The warning for a file `name` turned whole, `triangles` of it.
+pub fn inside_out_warning(name: &str, triangles: usize) -> String {
+    format!(
+        "{name}: its closed glass parts enclose a negative volume, so it winds inside out (clockwise seen from \
+         outside, as a mirrored export leaves it); all {triangles} of its glass triangles were turned, so that glass \
+         has its inside inside"
+    )
+}
+
+/// Turns every triangle of `indices`, for a file that winds inside out
+/// ([`Turned::enclosed`] negative over the file); returns how many.
+pub fn turn_inside_out(indices: &mut [[u32; 3]]) -> usize {
+    indices.iter_mut().for_each(|t| t.swap(1, 2));
+    indices.len()
 }
 
 /// Turns the triangles `indices` over `positions` of a mesh that will
@@ -106,23 +125,26 @@ pub fn orient(positions: &[Vec3], indices: &mut [[u32; 3]], normals: Normals, gl
             }
             Turned { against_normals: turned, ..Turned::default() }
         }
-        (Normals::Smooth, outward) | (Normals::Flat, outward @ true) => coherent(positions, indices, outward),
+        (Normals::Smooth, measure) | (Normals::Flat, measure @ true) => coherent(positions, indices, measure),
         (Normals::FromFile(_) | Normals::Flat, false) => Turned::default(),
     }
 }
 
 /// Each part of `indices` wound as most of its triangles, every triangle
-/// as its neighbours; closed parts `outward`, if asked.
-fn coherent(positions: &[Vec3], indices: &mut [[u32; 3]], outward: bool) -> Turned {
+/// as its neighbours; and, if asked to `measure`, the volume the closed
+/// parts enclose ([`Turned::enclosed`]).
+fn coherent(positions: &[Vec3], indices: &mut [[u32; 3]], measure: bool) -> Turned {
     // (A triangle's index and a bit share a `u32` below.)
     if indices.len() >= 1 << 31 {
         return Turned::default();
     }
     let n = indices.len();
-    let (shared, open) = shared_edges(positions, &welded(positions), indices);
+    // (Files repeat a corner where its normal or texture coordinates
+    // change, and STL files every corner, yet the triangles meet there.)
+    let (shared, open) = shared_edges(positions, &position_slots(positions), indices);
     // A file that winds one way, as most do, is done here, unless its
-    // closed parts must be found.
-    if !outward && shared.iter().all(|&(_, _, same)| !same) {
+    // closed parts must be measured.
+    if !measure && shared.iter().all(|&(_, _, same)| !same) {
         return Turned::default();
     }
     // Each triangle's links, from `first_link[t]` to `first_link[t + 1]`.
@@ -179,23 +201,14 @@ fn coherent(positions: &[Vec3], indices: &mut [[u32; 3]], outward: bool) -> Turn
             turned.one_sided += part.len();
             continue;
         }
-        // Most of an open part's triangles keep their winding; a closed
-        // part winds outward.
-        let turning = |turn: &[bool]| part.iter().filter(|&&t| turn[t as usize]).count();
-        let flip_all = if closed && outward {
-            signed_volume(positions, indices, &part, &turn) < 0.0
-        } else {
-            2 * turning(&turn) > part.len()
-        };
-        if flip_all {
+        // Most of a part's triangles keep their winding.
+        let turning = part.iter().filter(|&&t| turn[t as usize]).count();
+        if 2 * turning > part.len() {
             part.iter().for_each(|&t| turn[t as usize] ^= true);
         }
-        let turned_here = turning(&turn);
-        if closed && outward && 2 * turned_here > part.len() {
-            turned.inward_parts += 1;
-            turned.inward_triangles += turned_here;
-        } else {
-            turned.against_neighbours += turned_here;
+        turned.against_neighbours += turning.min(part.len() - turning);
+        if closed && measure {
+            turned.enclosed += signed_volume(positions, indices, &part, &turn);
         }
     }
     for (t, turn) in indices.iter_mut().zip(turn) {
@@ -206,30 +219,11 @@ fn coherent(positions: &[Vec3], indices: &mut [[u32; 3]], outward: bool) -> Turn
     turned
 }
 
-/// For each vertex, the lowest index of a vertex at exactly its place:
-/// files repeat a corner where its normal or texture coordinates change
-/// (and STL files every corner), yet the triangles meet there.
-fn welded(positions: &[Vec3]) -> Vec<u32> {
-    // (`+ 0.0` makes -0 and 0 one place.)
-    let key = |p: Vec3| (p + Vec3::ZERO).to_array().map(f32::to_bits);
-    let mut order: Vec<([u32; 3], u32)> =
-        positions.par_iter().enumerate().map(|(i, &p)| (key(p), i as u32)).collect();
-    order.par_sort_unstable();
-    let mut corner = vec![0u32; positions.len()];
-    let mut first = 0;
-    for (k, &(place, i)) in order.iter().enumerate() {
-        if place != order[first].0 {
-            first = k;
-        }
-        corner[i as usize] = order[first].1;
-    }
-    corner
-}
-
 /// The edges that two triangles share, each once: the two triangles, and
 /// whether they run along it the same way (then one of them must turn);
 /// and which triangles have an edge of their own or one of more than two
-/// triangles (their part is open). Corners are `corner`'s welded ones;
+/// triangles (their part is open). Corners at one place are one
+/// (`corner`, [`position_slots`]);
 /// triangles of no area, which [`Mesh::new`](super::mesh::Mesh::new)
 /// drops, take no part.
 fn shared_edges(
@@ -299,15 +293,7 @@ fn signed_volume(positions: &[Vec3], indices: &[[u32; 3]], part: &[u32], turn: &
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A unit cube's corners and its 12 triangles, each counter-clockwise
-    /// seen from outside.
-    fn cube() -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let corners = (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32));
-        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-        let triangles = quads.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]).collect();
-        (corners.collect(), triangles)
-    }
+    use crate::scene::test_scenes::unit_cube as cube;
 
     fn turned(t: [u32; 3]) -> [u32; 3] {
         [t[0], t[2], t[1]]
@@ -328,11 +314,15 @@ mod tests {
     fn a_mesh_that_winds_one_way_is_left_as_it_is() {
         let (p, t) = cube();
         let inward: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
-        for glass in [false, true] {
-            let mut same = t.clone();
-            assert_eq!(orient(&p, &mut same, Normals::Smooth, glass), Turned::default());
-            assert_eq!(same, t);
-        }
+        let mut same = t.clone();
+        assert_eq!(orient(&p, &mut same, Normals::Smooth, false), Turned::default());
+        assert_eq!(same, t);
+        // Glass is measured: six times the unit cube's volume.
+        assert_eq!(
+            orient(&p, &mut same, Normals::Smooth, true),
+            Turned { enclosed: 6.0, ..Turned::default() }
+        );
+        assert_eq!(same, t);
         // Inward, but not glass: the winding changes nothing seen.
         let mut same = inward.clone();
         assert_eq!(orient(&p, &mut same, Normals::Smooth, false), Turned::default());
@@ -340,18 +330,36 @@ mod tests {
     }
 
     #[test]
-    fn a_closed_glass_part_that_winds_inward_turns_outward() {
+    fn glass_wound_inward_encloses_a_negative_volume() {
         let (p, t) = cube();
         let mut inward: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
         let done = orient(&p, &mut inward, Normals::Smooth, true);
-        assert_eq!(done, Turned { inward_parts: 1, inward_triangles: 12, ..Turned::default() });
+        assert_eq!(done, Turned { enclosed: -6.0, ..Turned::default() });
+        assert_eq!(turn_inside_out(&mut inward), 12);
         assert_eq!(inward, t);
-        // Also with three of them outward already: 9 turn, in one part.
+        // With three of them outward: they turn to the other nine first.
         let mut mixed: Vec<[u32; 3]> =
             t.iter().enumerate().map(|(i, &t)| if i.is_multiple_of(4) { t } else { turned(t) }).collect();
         let done = orient(&p, &mut mixed, Normals::Smooth, true);
-        assert_eq!(done, Turned { inward_parts: 1, inward_triangles: 9, ..Turned::default() });
+        assert_eq!(done, Turned { against_neighbours: 3, enclosed: -6.0, ..Turned::default() });
+        turn_inside_out(&mut mixed);
         assert_eq!(mixed, t);
+    }
+
+    /// A hollow glass box: the outer surface winds outward, the inner one
+    /// (a closed part of its own) into the cavity. The sum says outward,
+    /// and nothing turns.
+    #[test]
+    fn a_hollow_ball_keeps_its_cavity_wound_inward() {
+        let (p, t) = cube();
+        let mut positions = p.clone();
+        positions.extend(p.iter().map(|&q| 0.25 + 0.5 * q));
+        let mut hollow = t.clone();
+        hollow.extend(t.iter().map(|&tri| turned(tri.map(|i| i + 8))));
+        let before = hollow.clone();
+        let done = orient(&positions, &mut hollow, Normals::Smooth, true);
+        assert_eq!(done, Turned { enclosed: 6.0 - 6.0 / 8.0, ..Turned::default() });
+        assert_eq!(hollow, before);
     }
 
     #[test]
@@ -361,7 +369,7 @@ mod tests {
             let mut mixed: Vec<[u32; 3]> =
                 t.iter().enumerate().map(|(i, &t)| if i.is_multiple_of(4) { turned(t) } else { t }).collect();
             let done = orient(&p, &mut mixed, Normals::Smooth, glass);
-            assert_eq!(done, Turned { against_neighbours: 3, ..Turned::default() }, "glass {glass}");
+            assert_eq!(done.against_neighbours, 3, "glass {glass}");
             assert_eq!(mixed, t);
         }
         // Flat normals (STL) turn nothing unless glass.
@@ -370,8 +378,9 @@ mod tests {
         let before = mixed.clone();
         assert_eq!(orient(&p, &mut mixed, Normals::Flat, false), Turned::default());
         assert_eq!(mixed, before);
-        assert_eq!(orient(&p, &mut mixed, Normals::Flat, true).inward_triangles, 11);
-        assert_eq!(mixed, t);
+        let done = orient(&p, &mut mixed, Normals::Flat, true);
+        assert_eq!(done, Turned { against_neighbours: 1, enclosed: -6.0, ..Turned::default() });
+        assert_eq!(mixed, t.iter().map(|&t| turned(t)).collect::<Vec<_>>());
     }
 
     /// Corners repeated (as STL files and OBJ files with texture seams
@@ -381,14 +390,14 @@ mod tests {
         let (p, t) = cube();
         let positions: Vec<Vec3> = t.iter().flat_map(|tri| tri.map(|i| p[i as usize])).collect();
         let own: Vec<[u32; 3]> = (0..12).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+        // Welded, the corners close the cube.
         let mut inward: Vec<[u32; 3]> = own.iter().map(|&t| turned(t)).collect();
-        assert_eq!(orient(&positions, &mut inward, Normals::Flat, true).inward_parts, 1);
-        assert_eq!(inward, own);
+        assert_eq!(orient(&positions, &mut inward, Normals::Flat, true).enclosed, -6.0);
         // -0 and 0 are one place.
         let mut signed = positions.clone();
         signed.iter_mut().filter(|p| p.x == 0.0).for_each(|p| p.x = -0.0);
         let mut inward: Vec<[u32; 3]> = own.iter().map(|&t| turned(t)).collect();
-        assert_eq!(orient(&signed, &mut inward, Normals::Flat, true).inward_parts, 1);
+        assert_eq!(orient(&signed, &mut inward, Normals::Flat, true).enclosed, -6.0);
     }
 
     #[test]
@@ -428,8 +437,7 @@ mod tests {
         let mut inward: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
         inward.push([0, 1, 1]);
         let done = orient(&p, &mut inward, Normals::Smooth, true);
-        assert_eq!((done.inward_parts, done.inward_triangles), (1, 12));
-        assert_eq!(inward[12], [0, 1, 1]);
+        assert_eq!(done, Turned { enclosed: -6.0, ..Turned::default() });
         p.push(Vec3::new(0.5, -1.0, 0.5));
         let mut fin: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
         fin.push([0, 1, 8]);
@@ -479,20 +487,15 @@ mod tests {
 
     #[test]
     fn the_warnings_say_what_turned() {
-        let all = Turned {
-            against_normals: 1,
-            against_neighbours: 2,
-            inward_parts: 3,
-            inward_triangles: 4,
-            one_sided: 5,
-        };
+        let all =
+            Turned { against_normals: 1, against_neighbours: 2, one_sided: 5, enclosed: -1.0, inside_out: 4 };
         let w = all.warnings("m.obj", 9);
         assert_eq!(w.len(), 4);
         assert!(w[0].starts_with("m.obj: 1 of its 9 triangles wind against the file's vertex normals"));
         assert!(w[1].starts_with("m.obj: 2 of its 9 triangles wind against their neighbours"));
-        assert!(w[2].starts_with("m.obj: 3 closed part(s) wind inward"), "{}", w[2]);
-        assert!(w[2].contains("4 triangles were turned"));
+        assert!(w[2].starts_with("m.obj: its closed glass parts enclose a negative volume"), "{}", w[2]);
+        assert!(w[2].contains("all 4 of its glass triangles were turned"));
         assert!(w[3].starts_with("m.obj: 5 triangles form one-sided surfaces"));
-        assert!(Turned::default().warnings("m.obj", 9).is_empty());
+        assert!(Turned { enclosed: 6.0, ..Turned::default() }.warnings("m.obj", 9).is_empty());
     }
 }
