@@ -457,7 +457,7 @@ fn mesh_files_wound_inward_or_every_which_way_render_as_wound_outward() {
     }
 }
 
-/// A box from an OBJ file without normals shades flat, as the built-in
+/// A box from an OBJ or PLY file without normals shades flat, as the built-in
 /// `[[box]]` does: its faces meet at creases, which smooth normals do not
 /// cross. (Averaged over all the triangles at each corner, its normals
 /// pointed along the diagonals and each face shaded as a blob.)
@@ -475,21 +475,36 @@ fn a_box_from_a_file_without_normals_shades_as_the_built_in_box() {
         );
         Scene::load(&write(dir.path(), name, &text)).unwrap()
     };
-    let from_file = scene_with("file.toml", "[[mesh]]\nfile = \"cube.obj\"\nmaterial = \"m\"\n");
+    // The same box as an ASCII PLY file, its faces from the OBJ's lines.
+    let mut ply = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 6\nproperty list uchar int vertex_indices\nend_header\n",
+    );
+    for line in cube.lines() {
+        let (kind, rest) = line.split_once(' ').unwrap();
+        let numbers: Vec<i32> = rest.split(' ').map(|n| n.parse().unwrap()).collect();
+        ply += &match kind {
+            "v" => format!("{} {} {}\n", numbers[0], numbers[1], numbers[2]),
+            _ => format!("4 {}\n", numbers.iter().map(|i| (i - 1).to_string()).collect::<Vec<_>>().join(" ")),
+        };
+    }
+    write(dir.path(), "cube.ply", &ply);
     let built_in = scene_with("box.toml", "[[box]]\ncenter = [0.5, 0.5, 0.5]\nsize = 1\nmaterial = \"m\"\n");
-    assert_eq!(from_file.meshes[0].positions.len(), 24, "each corner a vertex per face");
     let image = |scene: &Scene| {
         let accel = caustix::accel::build(caustix::accel::Backend::Embree, &scene.triangle_views()).unwrap();
         caustix::render(scene, accel.as_ref(), &scene.config, &|_| {}).unwrap().film.beauty()
     };
-    let (a, b) = (image(&from_file), image(&built_in));
+    let b = image(&built_in);
     let lit = b.pixels.iter().filter(|p| p.max_element() > 0.0).count();
     assert!(lit > 300, "the box is in view: {lit} pixels");
-    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
-        assert!(
-            (*p - *q).abs().max_element() <= 1e-5 * q.max_element().max(1.0),
-            "pixel {i}: {p} against {q}"
-        );
+    for file in ["cube.obj", "cube.ply"] {
+        let from_file = scene_with("file.toml", &format!("[[mesh]]\nfile = \"{file}\"\nmaterial = \"m\"\n"));
+        assert_eq!(from_file.meshes[0].positions.len(), 24, "{file}: each corner a vertex per face");
+        let a = image(&from_file);
+        for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+            let near = (*p - *q).abs().max_element() <= 1e-5 * q.max_element().max(1.0);
+            assert!(near, "{file}: pixel {i}: {p} against {q}");
+        }
     }
 }
 
