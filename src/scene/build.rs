@@ -569,9 +569,7 @@ pub(super) fn load_mesh_file(
         let normals = ply.normals.as_deref().map_or(Normals::Smooth, Normals::FromFile);
         let glass = is_glass(scene_materials, material);
         let mut turned = winding::orient(&ply.positions, &mut indices, normals, glass);
-        if turned.enclosed < 0.0 {
-            turned.inside_out = winding::turn_inside_out(&mut indices);
-        }
+        turned.whole_file(&mut indices);
         warnings.extend(turned.warnings(&name, indices.len()));
         (ply.positions, indices, ply.normals)
     };
@@ -580,7 +578,7 @@ pub(super) fn load_mesh_file(
     // smooth with creases.)
     let mesh = match normals {
         Some(normals) => Mesh::new(name.clone(), positions, indices, Some(normals), material),
-        None => Mesh::with_creases(name.clone(), positions, indices, material).0,
+        None => Mesh::with_creases(name.clone(), positions, indices, material),
     };
     if mesh.indices.len() < faces {
         warnings.push(format!(

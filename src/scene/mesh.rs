@@ -85,18 +85,16 @@ impl Mesh {
 
     /// A mesh from a file's positions and triangles, without normals of
     /// its own: smooth normals kept apart across creases
-    /// ([`creases::creased`]); and how many vertices that copied.
+    /// ([`creases::creased`]).
     pub fn with_creases(
         name: impl Into<String>,
         positions: Vec<Vec3>,
         indices: Vec<[u32; 3]>,
         material: usize,
-    ) -> (Mesh, usize) {
+    ) -> Mesh {
         debug_assert!(indices.iter().flatten().all(|&i| (i as usize) < positions.len()));
         let creased = creases::creased(positions, indices);
-        let mesh =
-            Mesh::assembled(name.into(), creased.positions, creased.indices, creased.normals, material);
-        (mesh, creased.added)
+        Mesh::assembled(name.into(), creased.positions, creased.indices, creased.normals, material)
     }
 
     /// The mesh of triangles of some area, and their normals.

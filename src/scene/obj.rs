@@ -197,7 +197,7 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         let faces = indices.len();
         let mesh = match normals {
             Some(normals) => Mesh::new(name, positions, indices, Some(normals), material),
-            None => Mesh::with_creases(name, positions, indices, material).0,
+            None => Mesh::with_creases(name, positions, indices, material),
         };
         if mesh.indices.len() < faces {
             warnings.push(format!(

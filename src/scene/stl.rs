@@ -144,9 +144,7 @@ impl StlMesh {
     /// normals.
     pub fn orient(&mut self, glass: bool) -> Turned {
         let mut turned = winding::orient(&self.positions, &mut self.indices, Normals::Flat, glass);
-        if turned.enclosed < 0.0 {
-            turned.inside_out = winding::turn_inside_out(&mut self.indices);
-        }
+        turned.whole_file(&mut self.indices);
         for (k, tri) in self.indices.iter().enumerate() {
             if tri[1] as usize != 3 * k + 1 {
                 self.normals[3 * k..3 * k + 3].iter_mut().for_each(|n| *n = -*n);

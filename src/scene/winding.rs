@@ -60,6 +60,14 @@ pub struct Turned {
 }
 
 impl Turned {
+    /// For a file of one mesh, `indices` as [`orient`] left them: turns
+    /// them all if they wind inside out, and counts it.
+    pub fn whole_file(&mut self, indices: &mut [[u32; 3]]) {
+        if self.enclosed < 0.0 {
+            self.inside_out = turn_inside_out(indices);
+        }
+    }
+
     /// The warnings for a mesh file named `name`, one for each kind of turn.
     pub fn warnings(&self, name: &str, triangles: usize) -> Vec<String> {
         let mut out = Vec::new();
