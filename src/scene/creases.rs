@@ -10,6 +10,8 @@
 //! sharp edge keep the angle-weighted average of [`vertex_normals`], bit
 //! for bit.
 
+use std::collections::{HashMap, HashSet};
+
 use glam::Vec3;
 
 use super::mesh::{corner_normals, face_normal, position_slots, vertex_normals};
@@ -90,23 +92,26 @@ pub fn creased(mut positions: Vec<Vec3>, mut indices: Vec<[u32; 3]>) -> Creased 
             let k = corner_at(&indices, &slots, t, s);
             sums[fan as usize] += corner_normals(&positions, indices[t as usize])[k];
         }
-        let mut copies: Vec<(u32, u32, u32)> = Vec::new(); // (index, fan, index of its copy)
+        // (Index and fan to the index that takes them; the indices taken.
+        // A vertex may have thousands of fans: a pleated disc's centre.)
+        let mut copies: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut taken: HashSet<u32> = HashSet::new();
         for (&t, &fan) in here.iter().zip(&fans) {
             let k = corner_at(&indices, &slots, t, s);
             let i = indices[t as usize][k];
             let normal = numeric::unit(sums[fan as usize]).unwrap_or(Vec3::ZERO);
-            match copies.iter().find(|c| c.0 == i && c.1 == fan) {
-                Some(&(_, _, copy)) => indices[t as usize][k] = copy,
-                None if !copies.iter().any(|c| c.0 == i) => {
+            match copies.get(&(i, fan)) {
+                Some(&copy) => indices[t as usize][k] = copy,
+                None if taken.insert(i) => {
                     normals[i as usize] = normal;
-                    copies.push((i, fan, i));
+                    copies.insert((i, fan), i);
                 }
                 None => {
                     let copy = positions.len() as u32;
                     positions.push(positions[i as usize]);
                     normals.push(normal);
                     slots.push(s);
-                    copies.push((i, fan, copy));
+                    copies.insert((i, fan), copy);
                     indices[t as usize][k] = copy;
                     added += 1;
                 }
@@ -167,17 +172,15 @@ fn fans_around(
         }
     }
     // Numbered in the order of their first triangles.
-    let mut numbers: Vec<(usize, u32)> = Vec::new();
+    let (mut number_of_root, mut fans) = (vec![u32::MAX; here.len()], 0);
     (0..here.len())
         .map(|i| {
             let r = root(&mut parent, i);
-            match numbers.iter().find(|n| n.0 == r) {
-                Some(&(_, n)) => n,
-                None => {
-                    numbers.push((r, numbers.len() as u32));
-                    numbers.len() as u32 - 1
-                }
+            if number_of_root[r] == u32::MAX {
+                number_of_root[r] = fans;
+                fans += 1;
             }
+            number_of_root[r]
         })
         .collect()
 }
@@ -257,5 +260,26 @@ mod tests {
         assert_eq!(c.added, 2);
         assert_eq!(c.normals[c.indices[2][0] as usize], Vec3::new(0.0, -1.0, 0.0));
         assert!(c.normals[0].z > 0.9, "{}", c.normals[0]);
+    }
+
+    /// A pleated disc: its triangles fold sharply at every edge, so its
+    /// centre takes a normal for each triangle, and each corner on the rim
+    /// one for each of its two. (A list searched for each corner made this
+    /// quadratic in the fans: 100,000 of them took 4.4 s to load.)
+    #[test]
+    fn a_vertex_of_many_fans_takes_a_normal_for_each() {
+        let n = 2000;
+        let rim = (0..n).map(|i| {
+            let a = std::f32::consts::TAU * i as f32 / n as f32;
+            Vec3::new(a.cos(), a.sin(), if i % 2 == 0 { 0.05 } else { -0.05 })
+        });
+        let positions: Vec<Vec3> = std::iter::once(Vec3::ZERO).chain(rim).collect();
+        let indices: Vec<[u32; 3]> = (0..n).map(|i| [0, 1 + i, 1 + (i + 1) % n]).collect();
+        let c = creased(positions, indices);
+        assert_eq!(c.added, (n as usize - 1) + n as usize);
+        for tri in &c.indices {
+            let face = face_normal(&c.positions, *tri).unwrap();
+            assert!(tri.iter().all(|&i| c.normals[i as usize].abs_diff_eq(face, 1e-5)));
+        }
     }
 }
