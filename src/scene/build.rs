@@ -517,12 +517,6 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Reused<K, V> {
     }
 }
 
-/// Whether material `id` of `materials` refracts (a number not there, as
-/// `caustix info`'s stand-in, is no glass).
-fn is_glass(materials: &[Material], id: usize) -> bool {
-    materials.get(id).is_some_and(Material::refracts)
-}
-
 /// Meshes from an OBJ, PLY or STL file (PLY by its extension or its
 /// header, STL by its extension, OBJ otherwise). PLY and STL files have no
 /// materials, so their `[[mesh]]` must name one.
@@ -551,7 +545,8 @@ pub(super) fn load_mesh_file(
     let mut warnings = Vec::new();
     let (positions, indices, normals) = if kind == Some(super::NotAScene::Stl) {
         let mut stl = stl::load(path)?;
-        warnings.extend(stl.orient(is_glass(scene_materials, material)).warnings(&name, stl.indices.len()));
+        warnings
+            .extend(stl.orient(obj::is_glass(scene_materials, material)).warnings(&name, stl.indices.len()));
         (stl.positions, stl.indices, Some(stl.normals))
     } else {
         let ply = ply::load(path)?;
@@ -567,7 +562,7 @@ pub(super) fn load_mesh_file(
         warnings.extend(ply.concave.map(|w| format!("{name}: {w}")));
         let mut indices = ply.indices;
         let normals = ply.normals.as_deref().map_or(Normals::Smooth, Normals::FromFile);
-        let glass = is_glass(scene_materials, material);
+        let glass = obj::is_glass(scene_materials, material);
         let mut turned = winding::orient(&ply.positions, &mut indices, normals, glass);
         turned.whole_file(&mut indices);
         warnings.extend(turned.warnings(&name, indices.len()));

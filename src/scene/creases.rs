@@ -7,14 +7,14 @@
 //! surfaces on either side are smoothed apart: each vertex on such an edge
 //! takes one normal for each fan of triangles around it that smooth edges
 //! join, a copy of the vertex for each fan but the first. Vertices on no
-//! sharp edge keep the angle-weighted average of [`vertex_normals`], bit
-//! for bit.
+//! sharp edge keep the angle-weighted average of
+//! [`vertex_normals`](super::mesh::vertex_normals), bit for bit.
 
 use std::collections::{HashMap, HashSet};
 
 use glam::Vec3;
 
-use super::mesh::{corner_normals, face_normal, position_slots, vertex_normals};
+use super::mesh::{corner_normals, face_normal, position_slots, vertex_normals_at};
 use crate::numeric;
 
 /// Triangles whose normals part by more than this many degrees meet at a
@@ -40,12 +40,12 @@ pub struct Creased {
 /// across creases (the module's comment). Triangles of no area are left
 /// out, as [`Mesh::new`](super::mesh::Mesh::new) leaves them.
 pub fn creased(mut positions: Vec<Vec3>, mut indices: Vec<[u32; 3]>) -> Creased {
-    indices.retain(|&t| face_normal(&positions, t).is_some());
-    let mut normals = vertex_normals(&positions, &indices);
+    let (faces, kept): (Vec<Vec3>, Vec<[u32; 3]>) =
+        indices.iter().filter_map(|&t| Some((face_normal(&positions, t)?, t))).unzip();
+    indices = kept;
     // (A copy of a vertex is at its place too.)
     let mut slots = position_slots(&positions);
-    let faces: Vec<Vec3> =
-        indices.iter().map(|&t| face_normal(&positions, t).unwrap_or(Vec3::ZERO)).collect();
+    let mut normals = vertex_normals_at(&positions, &indices, &slots);
     // The triangles around each place (slot), in triangle order: a bucket
     // sort.
     let slot_count = slots.iter().max().map_or(0, |&s| s as usize + 1);
@@ -188,6 +188,7 @@ fn fans_around(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::mesh::vertex_normals;
     use crate::scene::test_scenes::unit_cube as cube;
 
     #[test]

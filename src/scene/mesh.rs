@@ -236,7 +236,12 @@ pub(super) fn face_normal(positions: &[Vec3], [i0, i1, i2]: [u32; 3]) -> Option<
 /// vertices were split (e.g. by OBJ texture seams) still shades smoothly.
 /// A vertex with no non-degenerate neighbour gets the zero vector.
 pub fn vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
-    let slots = position_slots(positions);
+    vertex_normals_at(positions, indices, &position_slots(positions))
+}
+
+/// [`vertex_normals`], with the vertices' places (`position_slots`)
+/// already worked out.
+pub(super) fn vertex_normals_at(positions: &[Vec3], indices: &[[u32; 3]], slots: &[u32]) -> Vec<Vec3> {
     let slot_count = slots.iter().max().map_or(0, |&s| s as usize + 1);
     let mut sums = vec![Vec3::ZERO; slot_count];
     // The angle weights (an `acos` per corner) are computed in parallel a

@@ -163,9 +163,7 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         let normals = (m.normals.len() == m.positions.len() && !m.normals.is_empty())
             .then(|| m.normals.chunks_exact(3).map(Vec3::from_slice).collect());
         let name = format!("{file_name}:{}", model.name);
-        // (A number `choice` gave that is not in `scene_materials`, as
-        // `caustix info`'s stand-in, is no glass.)
-        let scene_glass = |id: usize| scene_materials.get(id).is_some_and(Material::refracts);
+        let scene_glass = |id: usize| is_glass(scene_materials, id);
         let (material, glass) = match (material_override, m.material_id, fallback) {
             (Some(id), _, _) => (id, scene_glass(id)),
             (None, Some(id), _) if id < materials.len() => (first_material + id, materials[id].refracts()),
@@ -216,6 +214,12 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         ));
     }
     Ok(ObjContents { meshes, materials, warnings, defaulted })
+}
+
+/// Whether material `id` of `materials` refracts (a number not there, as
+/// `caustix info`'s stand-in, is no glass).
+pub(super) fn is_glass(materials: &[Material], id: usize) -> bool {
+    materials.get(id).is_some_and(Material::refracts)
 }
 
 /// The triangles of `mesh`'s faces: triangles as they are, polygons by
