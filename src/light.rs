@@ -64,6 +64,9 @@ pub struct AreaFace {
     /// light's plane outside it without the exact test; infinite where the
     /// light is too small (or large) for `f32` squares to say.
     reach2: f32,
+    /// Bound on each coordinate's rounding error of a point on the light
+    /// (`center + a u + b v` in `f32`, with a margin).
+    rounding: Vec3,
 }
 
 impl AreaFace {
@@ -124,6 +127,7 @@ impl Light {
             skew: u.as_dvec3().dot(v.as_dvec3()),
             radiance: (power.as_dvec3() / (std::f64::consts::PI * area)).as_vec3(),
             reach2: f32::INFINITY,
+            rounding: 32.0 * f32::EPSILON * (center.abs() + (0.5 * u).abs() + (0.5 * v).abs()),
         };
         // A thousandth over: far beyond the rounding of a point's squared
         // distance in `f32` (a few ulps), kept where those are normal floats.
@@ -178,6 +182,15 @@ impl Light {
         match self {
             Light::Area { face, .. } => face.radiance,
             _ => Vec3::ZERO,
+        }
+    }
+
+    /// How far along the unit vector `n` rounding may put a point of the
+    /// light's surface from where it should be (zero for lights with none).
+    pub fn rounding_along(&self, n: Vec3) -> f32 {
+        match self {
+            Light::Area { face, .. } => n.abs().dot(face.rounding),
+            _ => 0.0,
         }
     }
 
@@ -238,8 +251,7 @@ impl Light {
                 // Leave from just in front of the light, by more than the
                 // rounding error of the point on it: a surface flush with the
                 // light (a ceiling) must not catch its photons at once.
-                let error = 32.0 * f32::EPSILON * (center.abs() + (0.5 * eu).abs() + (0.5 * ev).abs());
-                let origin = numeric::push_off(on, normal, error);
+                let origin = numeric::push_off(on, normal, face.rounding);
                 (Ray::new(origin, dir), power)
             }
             Light::Spot { position, direction, cone_angle, .. } => {

@@ -144,16 +144,37 @@ impl<'a> SceneQuery<'a> {
     /// through a ceiling light into the room while light paths going up end
     /// at its front: the path tracer and the light tracer would disagree on
     /// the ceiling above the light (BENCHMARKS.md, issue 16).
+    ///
+    /// A light laid flush on a surface (a panel in the ceiling's plane) is
+    /// in front of it: the two crossings differ only by rounding, and
+    /// taking the nearer of them showed the surface through the light on a
+    /// tenth to a half of the rays (`tests/lights.rs`). So lights are looked for a little
+    /// beyond the hit, and one found there counts if [`SceneQuery::flush`]
+    /// says so.
     fn meeting(&self, ray: &Ray, hit: Option<Hit>) -> Option<Interaction<'a, Hit>> {
-        let nearest = Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..*ray };
-        match self.scene.lights.nearest_crossing(&nearest) {
-            Some((light, t, Side::Front)) => {
-                return Some(Interaction::Emitter { light, t, radiance: light.front_radiance() });
+        let reach = hit.map_or(ray.t_max, |h| flush_reach(ray, h.t));
+        match self.scene.lights.nearest_crossing(&Ray { t_max: reach, ..*ray }) {
+            Some((light, t, side)) if hit.is_none_or(|h| t <= h.t || self.flush(ray, &h, light, t)) => {
+                return match side {
+                    Side::Front => Some(Interaction::Emitter { light, t, radiance: light.front_radiance() }),
+                    Side::Back => None,
+                };
             }
-            Some((_, _, Side::Back)) => return None,
-            None => {}
+            _ => {}
         }
         hit.map(Interaction::Surface)
+    }
+
+    /// Whether `light`, crossed by `ray` at `t` just beyond the surface
+    /// `hit`, lies in the surface's plane within the rounding of both: the
+    /// two crossings' distance along the surface's normal is within what
+    /// rounding puts between points of the two.
+    fn flush(&self, ray: &Ray, hit: &Hit, light: &Light, t: f32) -> bool {
+        let mesh = &self.scene.meshes[hit.geom_id as usize];
+        let face = mesh.face_normal(hit.prim_id);
+        let surface = SurfacePoint::facing(mesh, hit, face, true);
+        let apart = (t - hit.t) * ray.dir.dot(face).abs();
+        apart <= face.abs().dot(surface.error) + light.rounding_along(face)
     }
 
     /// The first triangle along `ray`, seeing through lights (geometry
@@ -199,6 +220,16 @@ impl<'a> SceneQuery<'a> {
     pub fn hit_material(&self, hit: &Hit) -> &'a Material {
         &self.scene.materials[self.scene.meshes[hit.geom_id as usize].material]
     }
+}
+
+/// How far along `ray` to look for a light flush with the surface hit at
+/// `t` ([`SceneQuery::flush`]): a thousandth of the size of the
+/// coordinates beyond it, far more than their rounding (32 ulps is 4e-6 of
+/// them), so that only rays within a few tenths of a degree of the plane
+/// find the light's crossing farther off. Never beyond `ray.t_max`.
+fn flush_reach(ray: &Ray, t: f32) -> f32 {
+    let size = t + ray.origin.abs().max_element() / ray.dir.abs().max_element();
+    (t + 1e-3 * size).min(ray.t_max)
 }
 
 /// A point on a surface, seen from an incoming ray.
