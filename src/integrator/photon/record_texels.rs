@@ -13,6 +13,17 @@
 //! and barycentrics alone: one read of memory, where the record's index
 //! then its value were two (each a wait on memory, in the profile).
 //!
+//! Where light changes within a patch (the spot a bulb a millimetre under a
+//! ceiling lights, far smaller than a patch), the record at the patch's
+//! centre gathered over a disc as small as the spot, or around it and
+//! without it: either way the spot's light, reflected on, was lost (a
+//! quarter of a Cornell box's back wall, BENCHMARKS.md). Looked up point by
+//! point instead, a gather ray finds the spot rarely and then very bright:
+//! fireflies. So a patch near a record narrower than half a patch holds the
+//! irradiance over a disc of the records' median radius around its centre,
+//! from every photon in it: the spot's light whole, spread as the records
+//! spread light where it is dim.
+//!
 //! What a patch holds depends only on the patch and the map, never on which
 //! thread got there first: two threads that race to fill it store the same
 //! value, so the image stays the same whatever the thread count.
@@ -25,6 +36,7 @@ use rayon::prelude::*;
 use crate::accel::{Hit, Ray};
 use crate::config::Estimate;
 use crate::integrator::Context;
+use crate::photon::nearest::PointTree;
 use crate::photon::{PhotonMap, PhotonMaps};
 use crate::query::SurfacePoint;
 use crate::scene::{Mesh, Scene};
@@ -55,6 +67,10 @@ const UNSEEN: u64 = u64::MAX;
 /// own points (the full estimate there).
 const NO_RECORD: u64 = u64::MAX - 1;
 
+/// A record whose gathering disc is narrower than this many patches across
+/// holds light that changes within a patch ([`RecordTexels::fine_near`]).
+const FINE_PER_PATCH: f32 = 0.5;
+
 /// Each triangle's patches, and the irradiance each patch reads, per side.
 pub(in crate::integrator) struct RecordTexels {
     /// Per mesh, per triangle: its first patch and the patches along an
@@ -64,6 +80,12 @@ pub(in crate::integrator) struct RecordTexels {
     /// ([`pack`]ed), [`UNSEEN`] or [`NO_RECORD`]. The sides apart, as most
     /// surfaces are seen from one side only: its patches lie closer.
     irradiance: [Vec<AtomicU64>; 2],
+    /// A patch's edge, at most.
+    size: f32,
+    /// The records' median gathering radius.
+    radius: f32,
+    /// Where the records narrower than [`FINE_PER_PATCH`] patches lie, if any.
+    fine: Option<PointTree<()>>,
 }
 
 /// Irradiance in 63 bits: each channel's `f32` (non-negative: no sign bit)
@@ -118,7 +140,8 @@ impl RecordTexels {
     /// yet looked up; `None` where the map has no records, or the scene
     /// would need more than [`MOST_PER_RECORD`] or [`MOST_PATCHES`].
     pub(in crate::integrator) fn new(scene: &Scene, global: &PhotonMap) -> Option<RecordTexels> {
-        let size = PATCH_PER_RADIUS * global.record_radius()?;
+        let radius = global.record_radius()?;
+        let size = PATCH_PER_RADIUS * radius;
         let most = MOST_PATCHES.min(MOST_PER_RECORD * global.record_count() as u64);
         // A patch a triangle at least: a mesh of too many is told at once.
         if scene.meshes.iter().map(|mesh| mesh.indices.len() as u64).sum::<u64>() > most {
@@ -142,7 +165,20 @@ impl RecordTexels {
             triangles.push(placed);
         }
         let unseen = || (0..first).into_par_iter().map(|_| AtomicU64::new(UNSEEN)).collect();
-        Some(RecordTexels { triangles, irradiance: [unseen(), unseen()] })
+        let narrowest2 = (FINE_PER_PATCH * size).powi(2);
+        let fine: Vec<Vec3> =
+            global.record_discs().filter(|&(_, r2)| r2 < narrowest2).map(|(p, _)| p).collect();
+        let fine = (!fine.is_empty()).then(|| PointTree::new(&fine, &vec![(); fine.len()]));
+        Some(RecordTexels { triangles, irradiance: [unseen(), unseen()], size, radius, fine })
+    }
+
+    /// Whether a record narrower than [`FINE_PER_PATCH`] patches may reach
+    /// into the patch centred at `centre`: within a patch's edge of it (as
+    /// far as the patch's corners) and that record's radius.
+    fn fine_near(&self, centre: Vec3) -> bool {
+        let reach = (1.0 + FINE_PER_PATCH) * self.size;
+        // (A search bounded by the reach looks at few of the tree's nodes.)
+        self.fine.as_ref().is_some_and(|fine| !fine.nearest::<1>(centre, reach * reach).as_slice().is_empty())
     }
 
     /// [`RecordTexels::new`] for the global map of `maps`, where final
@@ -230,6 +266,9 @@ impl RecordTexels {
         if kept == UNSEEN {
             let centre = centre(scene, at, patch);
             kept = match global.covering_record(centre.p, centre.ns, estimate) {
+                Some(_) if self.fine_near(centre.p) => {
+                    pack(global.irradiance_over_disc(centre.p, centre.ns, self.radius))
+                }
                 Some(record) => pack(global.record_irradiance(record)),
                 None => NO_RECORD,
             };
@@ -282,7 +321,9 @@ mod tests {
     /// indirect light varies the most of the example scenes): each diffuse
     /// hit reads exactly the record covering its patch's centre (so no two
     /// patches share a slot, whoever filled it first), mostly the record its
-    /// own point would read, and on average the same light.
+    /// own point would read, and on average the same light; or, near the hot
+    /// spot's records narrower than half a patch, exactly the disc's
+    /// estimate at the centre.
     #[test]
     fn hits_read_the_record_at_their_patchs_centre_and_on_average_their_points_own() {
         let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-point.toml");
@@ -298,7 +339,7 @@ mod tests {
         let bounds = scene.bounds();
         let mut rng = Rng::new(7, 0);
         let (mut read_sum, mut point_sum) = (Vec3::ZERO, Vec3::ZERO);
-        let (mut hits, mut same_record) = (0, 0);
+        let (mut hits, mut same_record, mut fine_hits) = (0, 0, 0);
         for _ in 0..40_000 {
             // From a random point in the box's inner half, in any direction.
             let inside = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.5 + 0.25;
@@ -315,6 +356,7 @@ mod tests {
             let read = texels.irradiance(&scene, global, &estimate, at);
             let patch = texels.patch(at).expect("the box's triangles are cut into patches");
             let centre = centre(&scene, at, patch);
+            let (fine, centre_p, centre_n) = (texels.fine_near(centre.p), centre.p, centre.ns);
             let centre = global.covering_record(centre.p, centre.ns, &estimate);
             assert_eq!(read.is_some(), centre.is_some());
             let sp = SurfacePoint::new(&scene, &ray, &hit);
@@ -323,11 +365,21 @@ mod tests {
             else {
                 continue;
             };
-            let exact = global.record_irradiance(centre);
+            // Near records narrower than half a patch, the disc's estimate;
+            // elsewhere the centre's record.
+            let exact = if fine {
+                global.irradiance_over_disc(centre_p, centre_n, texels.radius)
+            } else {
+                global.record_irradiance(centre)
+            };
             assert!(
                 (read - exact).abs().max_element() <= exact.max_element() * 2f32.powi(-14),
                 "{read} for {exact}"
             );
+            if fine {
+                fine_hits += 1;
+                continue;
+            }
             assert_eq!(sp.front, at.front);
             hits += 1;
             same_record += usize::from(centre == point);
@@ -339,7 +391,8 @@ mod tests {
         let ratio = read_sum / point_sum;
         assert!(same > 0.5, "the patch's record is the point's at {same} of the hits");
         assert!((ratio - 1.0).abs().max_element() < 0.01, "read / point's own: {ratio}");
-        eprintln!("{hits} hits; the same record at {same:.3}; read / point's own {ratio}");
+        eprintln!("{hits} hits; the same record at {same:.3}; read / point's own {ratio}; {fine_hits} near narrow records");
+        assert!(fine_hits > 0, "the hot spot above the light has records narrower than half a patch");
     }
 
     #[test]
