@@ -368,12 +368,14 @@ fn mtl_problems_are_named_in_the_mtl_file() {
 }
 
 /// A glass sphere from an OBJ file that winds its triangles inward, or
-/// turns every third, renders as the sphere wound outward, with or without
-/// the file's normals, and each is reported; a diffuse sphere whose
-/// triangles turn every which way gets the same smooth normals as the one
+/// turns every third, or gives every face twice (as exports of two-sided
+/// faces do: the copy wound the other way, with its normals turned too),
+/// renders as the sphere wound outward, with or without the file's
+/// normals, and each is reported; a diffuse sphere whose triangles turn
+/// every which way, or come twice, gets the same smooth normals as the one
 /// wound outward. (Unturned, the inward glass sphere comes out as a bubble
-/// with a ring of total internal reflection, the mixed one shattered, and
-/// the diffuse one speckled.)
+/// with a ring of total internal reflection, the mixed one and the two-sided
+/// one shattered, and the diffuse ones speckled.)
 #[test]
 fn mesh_files_wound_inward_or_every_which_way_render_as_wound_outward() {
     let dir = tempfile::tempdir().unwrap();
@@ -386,33 +388,56 @@ fn mesh_files_wound_inward_or_every_which_way_render_as_wound_outward() {
     let exported = std::fs::read_to_string(&obj).unwrap();
     // The file's faces, each rewritten by `face` (its index among the
     // faces and its corners), with or without the normals.
-    let variant = |name: &str, normals: bool, face: &dyn Fn(usize, [&str; 3]) -> [String; 3]| {
+    // (The normals again, turned, after the file's: the two-sided copies'.)
+    let normals_given = exported.lines().filter(|line| line.starts_with("vn ")).count();
+    let turned_normals: String = exported
+        .lines()
+        .filter_map(|line| line.strip_prefix("vn "))
+        .map(|n| {
+            let n: Vec<f32> = n.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            format!("vn {} {} {}\n", -n[0], -n[1], -n[2])
+        })
+        .collect();
+    // Each face as a variant writes it: one face or more, three corners each.
+    type Faces = Vec<[String; 3]>;
+    let variant = |name: &str, normals: bool, face: &dyn Fn(usize, [&str; 3]) -> Faces| {
         let mut text = String::new();
         let mut k = 0;
         for line in exported.lines() {
             if let Some(rest) = line.strip_prefix("f ") {
                 let corners: Vec<&str> = rest.split_whitespace().collect();
-                let corners = face(k, [corners[0], corners[1], corners[2]]);
-                let corners =
-                    corners.map(|c| if normals { c } else { c.split('/').next().unwrap().to_string() });
-                text += &format!("f {}\n", corners.join(" "));
+                for corners in face(k, [corners[0], corners[1], corners[2]]) {
+                    let corners =
+                        corners.map(|c| if normals { c } else { c.split('/').next().unwrap().to_string() });
+                    text += &format!("f {}\n", corners.join(" "));
+                }
                 k += 1;
             } else if normals || !line.starts_with("vn ") {
                 text += &format!("{line}\n");
             }
         }
+        if normals {
+            text += &turned_normals;
+        }
         write(dir.path(), name, &text);
     };
-    let keep = |_: usize, c: [&str; 3]| c.map(String::from);
-    let inward = |_: usize, [a, b, c]: [&str; 3]| [a, c, b].map(String::from);
+    let keep = |_: usize, c: [&str; 3]| vec![c.map(String::from)];
+    let inward = |_: usize, [a, b, c]: [&str; 3]| vec![[a, c, b].map(String::from)];
     let mixed = |k: usize, [a, b, c]: [&str; 3]| {
-        if k.is_multiple_of(3) { [a, c, b] } else { [a, b, c] }.map(String::from)
+        vec![if k.is_multiple_of(3) { [a, c, b] } else { [a, b, c] }.map(String::from)]
     };
+    // `v//n` corners: the copy's normal is the turned one, `normals_given` on.
+    let turned = |corner: &str| match corner.split_once("//") {
+        Some((v, n)) => format!("{v}//{}", n.parse::<usize>().unwrap() + normals_given),
+        None => panic!("the exported corner {corner} is not v//n"),
+    };
+    let two_sided = |_: usize, [a, b, c]: [&str; 3]| vec![[a, b, c].map(String::from), [c, b, a].map(turned)];
     for normals in [true, false] {
         let tag = if normals { "n" } else { "" };
         variant(&format!("out{tag}.obj"), normals, &keep);
         variant(&format!("in{tag}.obj"), normals, &inward);
         variant(&format!("mixed{tag}.obj"), normals, &mixed);
+        variant(&format!("twice{tag}.obj"), normals, &two_sided);
     }
     let scene_of = |file: &str, material: &str| {
         let text = format!(
@@ -439,10 +464,11 @@ fn mesh_files_wound_inward_or_every_which_way_render_as_wound_outward() {
             let outward = scene_of(&format!("out{tag}.obj"), material);
             assert!(outward.warnings.is_empty(), "{:?}", outward.warnings);
             let reference = image(&outward);
-            for (file, what) in [("in", "wind"), ("mixed", "wind against")] {
+            for (file, what) in [("in", "wind"), ("mixed", "wind against"), ("twice", "a face written twice")]
+            {
                 let scene = scene_of(&format!("{file}{tag}.obj"), material);
                 let diff = largest_difference(&image(&scene), &reference);
-                if material == "glass" || (file == "mixed" && tag.is_empty()) {
+                if material == "glass" || (file != "in" && tag.is_empty()) {
                     assert!(diff < 1e-4, "{file}{tag}.obj as {material}: {diff}");
                     assert_eq!(scene.warnings.len(), 1, "{file}{tag}.obj: {:?}", scene.warnings);
                     assert!(scene.warnings[0].contains(what), "{:?}", scene.warnings);

@@ -145,9 +145,12 @@ impl StlMesh {
     pub fn orient(&mut self, glass: bool) -> Turned {
         let mut turned = winding::orient(&self.positions, &mut self.indices, Normals::Flat, glass);
         turned.whole_file(&mut self.indices);
-        for (k, tri) in self.indices.iter().enumerate() {
-            if tri[1] as usize != 3 * k + 1 {
-                self.normals[3 * k..3 * k + 3].iter_mut().for_each(|n| *n = -*n);
+        // Each triangle's corners are its own three, in order until turned
+        // (copies left out leave theirs unused).
+        for &[first, second, _] in &self.indices {
+            if second != first + 1 {
+                let first = first as usize;
+                self.normals[first..first + 3].iter_mut().for_each(|n| *n = -*n);
             }
         }
         turned

@@ -25,6 +25,14 @@
 //! Elsewhere the winding changes nothing in the image (surfaces that are
 //! not glass look the same from both sides), and the file's is kept. What
 //! is turned is reported; a file that winds one way is left as it is.
+//!
+//! Where the winding is worked out (glass, and smooth normals), a face the
+//! file gives twice (the same three corners, in any order: exports of
+//! two-sided faces write each face again wound the other way, with its
+//! normals turned too) is kept once, the first. Two windings of one face
+//! cannot agree: a ray met either copy, as rounding chose, so a glass
+//! sphere written so rendered shattered, and the copies' normals cancelled
+//! in smooth normals.
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -57,6 +65,9 @@ pub struct Turned {
     pub enclosed: f64,
     /// Triangles turned with the whole file ([`turn_inside_out`]).
     pub inside_out: usize,
+    /// Triangles left out as copies of another: on the same three places,
+    /// in any order.
+    pub copies: usize,
 }
 
 impl Turned {
@@ -71,6 +82,13 @@ impl Turned {
     /// The warnings for a mesh file named `name`, one for each kind of turn.
     pub fn warnings(&self, name: &str, triangles: usize) -> Vec<String> {
         let mut out = Vec::new();
+        if self.copies > 0 {
+            out.push(format!(
+                "{name}: {} triangles lie on the same three corners as another (a face written twice, perhaps \
+                 wound both ways) and were left out: a surface is kept once, as glass and smooth normals need",
+                self.copies
+            ));
+        }
         if self.against_normals > 0 {
             out.push(format!(
                 "{name}: {} of its {triangles} triangles wind against the file's vertex normals and were turned to \
@@ -116,11 +134,17 @@ pub fn turn_inside_out(indices: &mut [[u32; 3]]) -> usize {
 
 /// Turns the triangles `indices` over `positions` of a mesh that will
 /// shade with `normals` and is glass or not, as the module says (a
-/// triangle turns by swapping its last two corners). Triangles of no area
-/// keep their winding.
-pub fn orient(positions: &[Vec3], indices: &mut [[u32; 3]], normals: Normals, glass: bool) -> Turned {
+/// triangle turns by swapping its last two corners), and leaves out copies
+/// where it works the winding out. Triangles of no area keep their
+/// winding.
+pub fn orient(positions: &[Vec3], indices: &mut Vec<[u32; 3]>, normals: Normals, glass: bool) -> Turned {
     match (normals, glass) {
         (Normals::FromFile(normals), true) => {
+            let copies = if may_repeat(positions, indices) {
+                drop_copies(&position_slots(positions), indices)
+            } else {
+                0
+            };
             let turn = |t: &[u32; 3]| {
                 let [p0, p1, p2] = t.map(|i| positions[i as usize].as_dvec3());
                 let face = (p1 - p0).cross(p2 - p0);
@@ -131,9 +155,13 @@ pub fn orient(positions: &[Vec3], indices: &mut [[u32; 3]], normals: Normals, gl
             if turned > 0 {
                 indices.iter_mut().filter(|t| turn(t)).for_each(|t| t.swap(1, 2));
             }
-            Turned { against_normals: turned, ..Turned::default() }
+            Turned { against_normals: turned, copies, ..Turned::default() }
         }
-        (Normals::Smooth, measure) | (Normals::Flat, measure @ true) => coherent(positions, indices, measure),
+        (Normals::Smooth, measure) | (Normals::Flat, measure @ true) => {
+            // (Files repeat a corner where its normal or texture coordinates
+            // change, and STL files every corner, yet the triangles meet there.)
+            coherent(positions, &position_slots(positions), indices, measure)
+        }
         (Normals::FromFile(_) | Normals::Flat, false) => Turned::default(),
     }
 }
@@ -141,19 +169,31 @@ pub fn orient(positions: &[Vec3], indices: &mut [[u32; 3]], normals: Normals, gl
 /// Each part of `indices` wound as most of its triangles, every triangle
 /// as its neighbours; and, if asked to `measure`, the volume the closed
 /// parts enclose ([`Turned::enclosed`]).
-fn coherent(positions: &[Vec3], indices: &mut [[u32; 3]], measure: bool) -> Turned {
+fn coherent(positions: &[Vec3], corner: &[u32], indices: &mut Vec<[u32; 3]>, measure: bool) -> Turned {
     // (A triangle's index and a bit share a `u32` below.)
     if indices.len() >= 1 << 31 {
         return Turned::default();
     }
+    let (mut shared, mut open, crowded) = shared_edges(positions, corner, indices);
+    // A face given twice puts four triangles on each edge it shares with
+    // another face, and the two copies side by side on each of its own:
+    // copies are looked for only where an edge has more than two, or two
+    // triangles on the same three places share one.
+    let places = |t: u32| {
+        let mut places = indices[t as usize].map(|i| corner[i as usize]);
+        places.sort_unstable();
+        places
+    };
+    let twins = || shared.par_iter().any(|&(a, b, _)| places(a) == places(b));
+    let copies = if crowded || twins() { drop_copies(corner, indices) } else { 0 };
+    if copies > 0 {
+        (shared, open, _) = shared_edges(positions, corner, indices);
+    }
     let n = indices.len();
-    // (Files repeat a corner where its normal or texture coordinates
-    // change, and STL files every corner, yet the triangles meet there.)
-    let (shared, open) = shared_edges(positions, &position_slots(positions), indices);
     // A file that winds one way, as most do, is done here, unless its
     // closed parts must be measured.
     if !measure && shared.iter().all(|&(_, _, same)| !same) {
-        return Turned::default();
+        return Turned { copies, ..Turned::default() };
     }
     // Each triangle's links, from `first_link[t]` to `first_link[t + 1]`.
     let mut first_link = vec![0u32; n + 1];
@@ -174,7 +214,7 @@ fn coherent(positions: &[Vec3], indices: &mut [[u32; 3]], measure: bool) -> Turn
     }
     drop(shared);
 
-    let mut turned = Turned::default();
+    let mut turned = Turned { copies, ..Turned::default() };
     let mut turn = vec![false; n];
     let mut part_of = vec![u32::MAX; n];
     let mut part = Vec::new();
@@ -227,18 +267,76 @@ fn coherent(positions: &[Vec3], indices: &mut [[u32; 3]], measure: bool) -> Turn
     turned
 }
 
+/// Whether two triangles of `indices` may lie on the same three places of
+/// `positions`: false only where none do. A quick test before
+/// [`drop_copies`] where the places are not otherwise needed: a hash of
+/// each triangle's corners' places, the same in any order (a sum), sorted.
+fn may_repeat(positions: &[Vec3], indices: &[[u32; 3]]) -> bool {
+    // (splitmix64's finaliser: every bit of the place moves every bit.)
+    let mix = |mut h: u64| {
+        h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        h ^ (h >> 31)
+    };
+    let place: Vec<u64> = positions
+        .par_iter()
+        .map(|&p| {
+            // (-0 and 0 are one place, as `position_slots` has it.)
+            let [x, y, z] = (p + Vec3::ZERO).to_array().map(|c| u64::from(c.to_bits()));
+            mix(mix((x << 32) | y) ^ z)
+        })
+        .collect();
+    let mut keys: Vec<u64> = indices
+        .par_iter()
+        .map(|tri| tri.iter().fold(0u64, |sum, &i| sum.wrapping_add(place[i as usize])))
+        .collect();
+    keys.par_sort_unstable();
+    keys.par_windows(2).any(|pair| pair[0] == pair[1])
+}
+
+/// Leaves out of `indices` every triangle whose corners lie at the same
+/// three places (`corner`, [`position_slots`]) as an earlier triangle's, in
+/// any order; returns how many. Triangles with a place twice (no area) are
+/// left to [`Mesh::new`](super::mesh::Mesh::new).
+fn drop_copies(corner: &[u32], indices: &mut Vec<[u32; 3]>) -> usize {
+    let mut keyed: Vec<([u32; 3], u32)> = indices
+        .par_iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            let mut places = tri.map(|i| corner[i as usize]);
+            places.sort_unstable();
+            (places, t as u32)
+        })
+        .collect();
+    // Copies side by side, the earliest first.
+    keyed.par_sort_unstable();
+    let mut copy = vec![false; indices.len()];
+    for pair in keyed.windows(2) {
+        let ([a, b, c], _) = pair[0];
+        if pair[1].0 == pair[0].0 && a != b && b != c {
+            copy[pair[1].1 as usize] = true;
+        }
+    }
+    let copies = copy.iter().filter(|&&c| c).count();
+    if copies > 0 {
+        let mut is_copy = copy.into_iter();
+        indices.retain(|_| !is_copy.next().unwrap_or(false));
+    }
+    copies
+}
+
 /// The edges that two triangles share, each once: the two triangles, and
 /// whether they run along it the same way (then one of them must turn);
-/// and which triangles have an edge of their own or one of more than two
-/// triangles (their part is open). Corners at one place are one
-/// (`corner`, [`position_slots`]);
-/// triangles of no area, which [`Mesh::new`](super::mesh::Mesh::new)
-/// drops, take no part.
+/// which triangles have an edge of their own or one of more than two
+/// triangles (their part is open); and whether any edge has more than two.
+/// Corners at one place are one (`corner`, [`position_slots`]); triangles
+/// of no area, which [`Mesh::new`](super::mesh::Mesh::new) drops, take no
+/// part.
 fn shared_edges(
     positions: &[Vec3],
     corner: &[u32],
     indices: &[[u32; 3]],
-) -> (Vec<(u32, u32, bool)>, Vec<bool>) {
+) -> (Vec<(u32, u32, bool)>, Vec<bool>, bool) {
     // Each edge is listed under its lower corner, with its higher corner
     // and its triangle's index times two, plus one where the triangle runs
     // along it from the higher corner: a bucket sort, each bucket a
@@ -264,7 +362,7 @@ fn shared_edges(
             filled[low] += 1;
         }
     }
-    let (mut shared, mut open) = (Vec::new(), vec![false; indices.len()]);
+    let (mut shared, mut open, mut crowded) = (Vec::new(), vec![false; indices.len()], false);
     for v in 0..corner.len() {
         let bucket = &mut under[first[v] as usize..first[v + 1] as usize];
         bucket.sort_unstable();
@@ -272,11 +370,12 @@ fn shared_edges(
             if let [(_, a), (_, b)] = *run {
                 shared.push((a >> 1, b >> 1, (a & 1) == (b & 1)));
             } else {
+                crowded |= run.len() > 2;
                 run.iter().for_each(|&(_, t)| open[(t >> 1) as usize] = true);
             }
         }
     }
-    (shared, open)
+    (shared, open, crowded)
 }
 
 /// Six times the volume a closed part encloses, positive where its
@@ -305,6 +404,46 @@ mod tests {
 
     fn turned(t: [u32; 3]) -> [u32; 3] {
         [t[0], t[2], t[1]]
+    }
+
+    /// A cube whose faces come twice (the copy wound the other way, a
+    /// corner of its own at the same place, as two-sided exports write
+    /// them), once more in another corner order, with a triangle of no
+    /// area twice: the copies go, the first of each is kept, and the cube
+    /// then winds one way, as it was.
+    #[test]
+    fn a_face_given_twice_is_kept_once_the_first() {
+        let (mut p, cube_faces) = cube();
+        let n = p.len() as u32;
+        p.extend_from_within(..); // corners n.. at the same places
+        let mut indices = cube_faces.clone();
+        indices.extend(cube_faces.iter().map(|&[a, b, c]| [c + n, b + n, a + n]));
+        indices.extend(cube_faces.iter().map(|&[a, b, c]| [b, c, a]));
+        indices.extend([[0, 0, 1], [0, 0, 1]]);
+        assert!(may_repeat(&p, &indices) && !may_repeat(&p, &cube_faces));
+        for normals in [Normals::Smooth, Normals::Flat] {
+            let mut given = indices.clone();
+            let done = orient(&p, &mut given, normals, true);
+            assert_eq!(done.copies, 24, "{done:?}");
+            assert_eq!(&given[..12], &cube_faces[..]);
+            assert_eq!(&given[12..], &[[0, 0, 1], [0, 0, 1]]);
+            assert_eq!((done.against_neighbours, done.inside_out), (0, 0));
+            assert!(done.warnings("cube.obj", given.len())[0]
+                .contains("24 triangles lie on the same three corners"));
+        }
+        // A lone triangle given twice shares no edge with any other face.
+        let lone = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let mut twice = vec![[0, 1, 2], [2, 1, 0]];
+        assert_eq!(orient(&lone, &mut twice, Normals::Smooth, false).copies, 1);
+        assert_eq!(twice, [[0, 1, 2]]);
+        let mut given = indices.clone();
+        let file_normals = vec![Vec3::ONE; p.len()];
+        assert_eq!(orient(&p, &mut given, Normals::FromFile(&file_normals), true).copies, 24);
+        // Not glass, with the file's normals: nothing is worked out, and
+        // nothing is left out.
+        let mut given = indices.clone();
+        assert_eq!(orient(&p, &mut given, Normals::FromFile(&file_normals), false), Turned::default());
+        assert_eq!(given, indices);
     }
 
     fn volume(positions: &[Vec3], indices: &[[u32; 3]]) -> f64 {
@@ -495,15 +634,22 @@ mod tests {
 
     #[test]
     fn the_warnings_say_what_turned() {
-        let all =
-            Turned { against_normals: 1, against_neighbours: 2, one_sided: 5, enclosed: -1.0, inside_out: 4 };
+        let all = Turned {
+            against_normals: 1,
+            against_neighbours: 2,
+            one_sided: 5,
+            enclosed: -1.0,
+            inside_out: 4,
+            copies: 3,
+        };
         let w = all.warnings("m.obj", 9);
-        assert_eq!(w.len(), 4);
-        assert!(w[0].starts_with("m.obj: 1 of its 9 triangles wind against the file's vertex normals"));
-        assert!(w[1].starts_with("m.obj: 2 of its 9 triangles wind against their neighbours"));
-        assert!(w[2].starts_with("m.obj: its closed glass parts enclose a negative volume"), "{}", w[2]);
-        assert!(w[2].contains("all 4 of its glass triangles were turned"));
-        assert!(w[3].starts_with("m.obj: 5 triangles form one-sided surfaces"));
+        assert_eq!(w.len(), 5);
+        assert!(w[0].starts_with("m.obj: 3 triangles lie on the same three corners as another"));
+        assert!(w[1].starts_with("m.obj: 1 of its 9 triangles wind against the file's vertex normals"));
+        assert!(w[2].starts_with("m.obj: 2 of its 9 triangles wind against their neighbours"));
+        assert!(w[3].starts_with("m.obj: its closed glass parts enclose a negative volume"), "{}", w[3]);
+        assert!(w[3].contains("all 4 of its glass triangles were turned"));
+        assert!(w[4].starts_with("m.obj: 5 triangles form one-sided surfaces"));
         assert!(Turned { enclosed: 6.0, ..Turned::default() }.warnings("m.obj", 9).is_empty());
     }
 }
