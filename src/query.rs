@@ -148,9 +148,9 @@ impl<'a> SceneQuery<'a> {
     /// A light laid flush on a surface (a panel in the ceiling's plane) is
     /// in front of it: the two crossings differ only by rounding, and
     /// taking the nearer of them showed the surface through the light on a
-    /// tenth to a half of the rays (`tests/lights.rs`). So lights are looked for a little
-    /// beyond the hit, and one found there counts if [`SceneQuery::flush`]
-    /// says so.
+    /// tenth to a half of the rays (`tests/lights.rs`). So lights are
+    /// looked for a little beyond the hit, and one found there counts if
+    /// [`SceneQuery::flush`] says so.
     fn meeting(&self, ray: &Ray, hit: Option<Hit>) -> Option<Interaction<'a, Hit>> {
         let reach = hit.map_or(ray.t_max, |h| flush_reach(ray, h.t));
         match self.scene.lights.nearest_crossing(&Ray { t_max: reach, ..*ray }) {
