@@ -9,9 +9,10 @@ use std::path::{Path, PathBuf};
 use glam::{DMat4, DQuat, DVec3, EulerRot, Vec3};
 use toml::Spanned;
 
+use super::mesh::FileNormals;
 use super::obj::MeshMaterials;
 use super::values::Position;
-use super::winding::{self, Normals};
+use super::winding;
 use super::{file, obj, ply, shapes, stl, teapot, Camera, Mesh, Overrides, Scene};
 use crate::config::limits::{MAX_DISTANCE, MIN_EXTENT};
 use crate::config::{PhotonConfig, RenderConfig, SppmConfig};
@@ -547,7 +548,7 @@ pub(super) fn load_mesh_file(
         let mut stl = stl::load(path)?;
         warnings
             .extend(stl.orient(obj::is_glass(scene_materials, material)).warnings(&name, stl.indices.len()));
-        (stl.positions, stl.indices, Some(stl.normals))
+        (stl.positions, stl.indices, FileNormals::Given(stl.normals))
     } else {
         let ply = ply::load(path)?;
         if !ply.unread.is_empty() {
@@ -561,20 +562,17 @@ pub(super) fn load_mesh_file(
         }
         warnings.extend(ply.concave.map(|w| format!("{name}: {w}")));
         let mut indices = ply.indices;
-        let normals = ply.normals.as_deref().map_or(Normals::Smooth, Normals::FromFile);
+        let normals = FileNormals::of(ply.normals, &ply.positions);
         let glass = obj::is_glass(scene_materials, material);
-        let mut turned = winding::orient(&ply.positions, &mut indices, normals, glass);
+        let mut turned = winding::orient(&ply.positions, &mut indices, normals.for_winding(), glass);
         turned.whole_file(&mut indices);
         warnings.extend(turned.warnings(&name, indices.len()));
-        (ply.positions, indices, ply.normals)
+        (ply.positions, indices, normals)
     };
     let faces = indices.len();
     // (STL's flat normals come with the file; PLY's are the file's own, or
     // smooth with creases.)
-    let mesh = match normals {
-        Some(normals) => Mesh::new(name.clone(), positions, indices, Some(normals), material),
-        None => Mesh::with_creases(name.clone(), positions, indices, material),
-    };
+    let mesh = normals.mesh(name.clone(), positions, indices, material);
     if mesh.indices.len() < faces {
         warnings.push(format!(
             "{name}: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",

@@ -14,7 +14,7 @@ use std::collections::{HashMap, HashSet};
 
 use glam::Vec3;
 
-use super::mesh::{corner_normals, face_normal, position_slots, vertex_normals_at};
+use super::mesh::{corner_normals, face_normal, vertex_normals_at};
 use crate::numeric;
 
 /// Triangles whose normals part by more than this many degrees meet at a
@@ -37,14 +37,15 @@ pub struct Creased {
 }
 
 /// Smooth normals for the triangles `indices` over `positions`, kept apart
-/// across creases (the module's comment). Triangles of no area are left
-/// out, as [`Mesh::new`](super::mesh::Mesh::new) leaves them.
-pub fn creased(mut positions: Vec<Vec3>, mut indices: Vec<[u32; 3]>) -> Creased {
+/// across creases (the module's comment), given the vertices' places
+/// `slots` (`mesh::position_slots`, as the winding pass worked them out).
+/// Triangles of no area are left out, as
+/// [`Mesh::new`](super::mesh::Mesh::new) leaves them.
+pub fn creased(mut positions: Vec<Vec3>, mut indices: Vec<[u32; 3]>, mut slots: Vec<u32>) -> Creased {
     let (faces, kept): (Vec<Vec3>, Vec<[u32; 3]>) =
         indices.iter().filter_map(|&t| Some((face_normal(&positions, t)?, t))).unzip();
     indices = kept;
     // (A copy of a vertex is at its place too.)
-    let mut slots = position_slots(&positions);
     let mut normals = vertex_normals_at(&positions, &indices, &slots);
     // The triangles around each place (slot), in triangle order: a bucket
     // sort.
@@ -188,13 +189,19 @@ fn fans_around(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`creased`], the places worked out here.
+    fn creased_anew(positions: Vec<Vec3>, indices: Vec<[u32; 3]>) -> Creased {
+        let slots = crate::scene::mesh::position_slots(&positions);
+        creased(positions, indices, slots)
+    }
     use crate::scene::mesh::vertex_normals;
     use crate::scene::test_scenes::unit_cube as cube;
 
     #[test]
     fn a_box_keeps_its_faces_flat() {
         let (p, t) = cube();
-        let c = creased(p.clone(), t);
+        let c = creased_anew(p.clone(), t);
         // Each corner, on three faces, is three vertices.
         assert_eq!((c.added, c.positions.len()), (16, 24));
         for tri in &c.indices {
@@ -213,7 +220,7 @@ mod tests {
     fn a_curved_surface_keeps_the_smooth_normals_bit_for_bit() {
         let sphere = crate::scene::shapes::sphere("s", Vec3::ZERO, 1.0, 3, 0);
         let smooth = vertex_normals(&sphere.positions, &sphere.indices);
-        let c = creased(sphere.positions.clone(), sphere.indices.clone());
+        let c = creased_anew(sphere.positions.clone(), sphere.indices.clone());
         assert_eq!(c.added, 0);
         assert_eq!(c.indices, sphere.indices);
         assert_eq!(c.normals, smooth);
@@ -226,7 +233,7 @@ mod tests {
         let fold = |degrees: f32| {
             let (s, c) = degrees.to_radians().sin_cos();
             let p = vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.0, c, s)];
-            creased(p, vec![[0, 1, 3], [0, 2, 1]])
+            creased_anew(p, vec![[0, 1, 3], [0, 2, 1]])
         };
         let gentle = fold(45.0);
         assert_eq!(gentle.added, 0);
@@ -239,7 +246,7 @@ mod tests {
         // At 90 degrees, split corners written once at 0 and once at -0 are
         // one place, and each index keeps its own fan: nothing copied.
         let p = vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, -1.0, 0.0), -Vec3::ZERO, Vec3::X, Vec3::Z];
-        let seam = creased(p, vec![[3, 4, 5], [0, 2, 1]]);
+        let seam = creased_anew(p, vec![[3, 4, 5], [0, 2, 1]]);
         assert_eq!(seam.added, 0);
         assert!(seam.normals[3].abs_diff_eq(Vec3::new(0.0, -1.0, 0.0), 1e-6), "{}", seam.normals[3]);
         assert!(seam.normals[0].abs_diff_eq(Vec3::Z, 1e-6), "{}", seam.normals[0]);
@@ -256,7 +263,7 @@ mod tests {
             Vec3::new(0.5, -1.0, 0.1),
             Vec3::new(0.5, 0.0, 1.0),
         ];
-        let c = creased(p, vec![[0, 1, 2], [0, 3, 1], [0, 1, 4]]);
+        let c = creased_anew(p, vec![[0, 1, 2], [0, 3, 1], [0, 1, 4]]);
         // The edge's two corners each take a second normal.
         assert_eq!(c.added, 2);
         assert_eq!(c.normals[c.indices[2][0] as usize], Vec3::new(0.0, -1.0, 0.0));
@@ -276,7 +283,7 @@ mod tests {
         });
         let positions: Vec<Vec3> = std::iter::once(Vec3::ZERO).chain(rim).collect();
         let indices: Vec<[u32; 3]> = (0..n).map(|i| [0, 1 + i, 1 + (i + 1) % n]).collect();
-        let c = creased(positions, indices);
+        let c = creased_anew(positions, indices);
         assert_eq!(c.added, (n as usize - 1) + n as usize);
         for tri in &c.indices {
             let face = face_normal(&c.positions, *tri).unwrap();

@@ -5,6 +5,7 @@ use glam::{DMat3, DMat4, DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::creases;
+use super::winding::Normals;
 use crate::accel::embree::TriangleView;
 pub use crate::bounds::Bounds;
 use crate::numeric;
@@ -26,6 +27,49 @@ pub struct Mesh {
     /// Each triangle's unit normal, [`Mesh::face_normal`] worked out once,
     /// for meshes of up to [`FACE_NORMALS_UP_TO`] triangles (empty for larger).
     face_normals: Vec<Vec3>,
+}
+
+/// The normals a mesh file's triangles will shade with: the file's own,
+/// or smooth ones worked out over the vertices' places
+/// ([`position_slots`]), which the winding pass needs first and the
+/// creases after it (worked out once for both).
+pub(super) enum FileNormals {
+    /// The file's vertex normals (an STL file's flat ones too).
+    Given(Vec<Vec3>),
+    /// None in the file: each vertex's place.
+    Smooth(Vec<u32>),
+}
+
+impl FileNormals {
+    /// The file's normals if it gives them, else the places of `positions`.
+    pub(super) fn of(given: Option<Vec<Vec3>>, positions: &[Vec3]) -> FileNormals {
+        match given {
+            Some(normals) => FileNormals::Given(normals),
+            None => FileNormals::Smooth(position_slots(positions)),
+        }
+    }
+
+    /// What the winding pass is told of them.
+    pub(super) fn for_winding(&self) -> Normals<'_> {
+        match self {
+            FileNormals::Given(normals) => Normals::FromFile(normals),
+            FileNormals::Smooth(slots) => Normals::Smooth(slots),
+        }
+    }
+
+    /// The mesh of the file's `positions` and `indices` shading with them.
+    pub(super) fn mesh(
+        self,
+        name: impl Into<String>,
+        positions: Vec<Vec3>,
+        indices: Vec<[u32; 3]>,
+        material: usize,
+    ) -> Mesh {
+        match self {
+            FileNormals::Given(normals) => Mesh::new(name, positions, indices, Some(normals), material),
+            FileNormals::Smooth(slots) => Mesh::with_creases(name, positions, indices, slots, material),
+        }
+    }
 }
 
 /// Meshes of up to this many triangles keep each triangle's normal rather
@@ -85,15 +129,18 @@ impl Mesh {
 
     /// A mesh from a file's positions and triangles, without normals of
     /// its own: smooth normals kept apart across creases
-    /// ([`creases::creased`]).
-    pub fn with_creases(
+    /// ([`creases::creased`]), over the vertices' places `slots`
+    /// ([`position_slots`]).
+    fn with_creases(
         name: impl Into<String>,
         positions: Vec<Vec3>,
         indices: Vec<[u32; 3]>,
+        slots: Vec<u32>,
         material: usize,
     ) -> Mesh {
         debug_assert!(indices.iter().flatten().all(|&i| (i as usize) < positions.len()));
-        let creased = creases::creased(positions, indices);
+        debug_assert_eq!(slots.len(), positions.len());
+        let creased = creases::creased(positions, indices, slots);
         Mesh::assembled(name.into(), creased.positions, creased.indices, creased.normals, material)
     }
 

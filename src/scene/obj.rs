@@ -7,9 +7,9 @@ use std::str::SplitWhitespace;
 
 use glam::Vec3;
 
-use super::mesh::Mesh;
+use super::mesh::{FileNormals, Mesh};
 use super::polygon::{self, Concave};
-use super::winding::{self, Normals};
+use super::winding;
 use crate::error::{Error, Location, Result};
 use crate::material::Material;
 
@@ -129,7 +129,7 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         name: String,
         positions: Vec<Vec3>,
         indices: Vec<[u32; 3]>,
-        normals: Option<Vec<Vec3>>,
+        normals: FileNormals,
         material: usize,
         glass: bool,
     }
@@ -177,8 +177,8 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
             }
         };
         let mut indices = indices;
-        let as_normals = normals.as_deref().map_or(Normals::Smooth, Normals::FromFile);
-        let turned = winding::orient(&positions, &mut indices, as_normals, glass);
+        let normals = FileNormals::of(normals, &positions);
+        let turned = winding::orient(&positions, &mut indices, normals.for_winding(), glass);
         warnings.extend(turned.warnings(&format!("{file_name}: object `{}`", model.name), indices.len()));
         enclosed += turned.enclosed;
         objects.push(Object { model: model.name, name, positions, indices, normals, material, glass });
@@ -193,10 +193,7 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
     let mut meshes = Vec::with_capacity(objects.len());
     for Object { model, name, positions, indices, normals, material, .. } in objects {
         let faces = indices.len();
-        let mesh = match normals {
-            Some(normals) => Mesh::new(name, positions, indices, Some(normals), material),
-            None => Mesh::with_creases(name, positions, indices, material),
-        };
+        let mesh = normals.mesh(name, positions, indices, material);
         if mesh.indices.len() < faces {
             warnings.push(format!(
                 "{file_name}: object `{model}`: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",

@@ -43,8 +43,9 @@ use super::mesh::{face_normal, position_slots};
 pub enum Normals<'a> {
     /// The file's own vertex normals.
     FromFile(&'a [Vec3]),
-    /// Smooth normals to be worked out from the triangles.
-    Smooth,
+    /// Smooth normals to be worked out from the triangles, over the
+    /// vertices' places (`mesh::position_slots`), which the creases need too.
+    Smooth(&'a [u32]),
     /// Each triangle's own (STL).
     Flat,
 }
@@ -157,11 +158,10 @@ pub fn orient(positions: &[Vec3], indices: &mut Vec<[u32; 3]>, normals: Normals,
             }
             Turned { against_normals: turned, copies, ..Turned::default() }
         }
-        (Normals::Smooth, measure) | (Normals::Flat, measure @ true) => {
-            // (Files repeat a corner where its normal or texture coordinates
-            // change, and STL files every corner, yet the triangles meet there.)
-            coherent(positions, &position_slots(positions), indices, measure)
-        }
+        // (Files repeat a corner where its normal or texture coordinates
+        // change, and STL files every corner, yet the triangles meet there.)
+        (Normals::Smooth(places), measure) => coherent(positions, places, indices, measure),
+        (Normals::Flat, true) => coherent(positions, &position_slots(positions), indices, true),
         (Normals::FromFile(_) | Normals::Flat, false) => Turned::default(),
     }
 }
@@ -179,11 +179,7 @@ fn coherent(positions: &[Vec3], corner: &[u32], indices: &mut Vec<[u32; 3]>, mea
     // another face, and the two copies side by side on each of its own:
     // copies are looked for only where an edge has more than two, or two
     // triangles on the same three places share one.
-    let places = |t: u32| {
-        let mut places = indices[t as usize].map(|i| corner[i as usize]);
-        places.sort_unstable();
-        places
-    };
+    let places = |t: u32| places_of(corner, indices[t as usize]);
     let twins = || shared.par_iter().any(|&(a, b, _)| places(a) == places(b));
     let copies = if crowded || twins() { drop_copies(corner, indices) } else { 0 };
     if copies > 0 {
@@ -294,20 +290,21 @@ fn may_repeat(positions: &[Vec3], indices: &[[u32; 3]]) -> bool {
     keys.par_windows(2).any(|pair| pair[0] == pair[1])
 }
 
+/// The places (`corner`, [`position_slots`]) of the triangle `tri`'s
+/// corners, in increasing order: the same for a triangle and its copies.
+fn places_of(corner: &[u32], tri: [u32; 3]) -> [u32; 3] {
+    let mut places = tri.map(|i| corner[i as usize]);
+    places.sort_unstable();
+    places
+}
+
 /// Leaves out of `indices` every triangle whose corners lie at the same
 /// three places (`corner`, [`position_slots`]) as an earlier triangle's, in
 /// any order; returns how many. Triangles with a place twice (no area) are
 /// left to [`Mesh::new`](super::mesh::Mesh::new).
 fn drop_copies(corner: &[u32], indices: &mut Vec<[u32; 3]>) -> usize {
-    let mut keyed: Vec<([u32; 3], u32)> = indices
-        .par_iter()
-        .enumerate()
-        .map(|(t, tri)| {
-            let mut places = tri.map(|i| corner[i as usize]);
-            places.sort_unstable();
-            (places, t as u32)
-        })
-        .collect();
+    let mut keyed: Vec<([u32; 3], u32)> =
+        indices.par_iter().enumerate().map(|(t, &tri)| (places_of(corner, tri), t as u32)).collect();
     // Copies side by side, the earliest first.
     keyed.par_sort_unstable();
     let mut copy = vec![false; indices.len()];
@@ -421,7 +418,8 @@ mod tests {
         indices.extend(cube_faces.iter().map(|&[a, b, c]| [b, c, a]));
         indices.extend([[0, 0, 1], [0, 0, 1]]);
         assert!(may_repeat(&p, &indices) && !may_repeat(&p, &cube_faces));
-        for normals in [Normals::Smooth, Normals::Flat] {
+        let places = position_slots(&p);
+        for normals in [Normals::Smooth(&places), Normals::Flat] {
             let mut given = indices.clone();
             let done = orient(&p, &mut given, normals, true);
             assert_eq!(done.copies, 24, "{done:?}");
@@ -434,7 +432,7 @@ mod tests {
         // A lone triangle given twice shares no edge with any other face.
         let lone = [Vec3::ZERO, Vec3::X, Vec3::Y];
         let mut twice = vec![[0, 1, 2], [2, 1, 0]];
-        assert_eq!(orient(&lone, &mut twice, Normals::Smooth, false).copies, 1);
+        assert_eq!(orient(&lone, &mut twice, Normals::Smooth(&position_slots(&lone)), false).copies, 1);
         assert_eq!(twice, [[0, 1, 2]]);
         let mut given = indices.clone();
         let file_normals = vec![Vec3::ONE; p.len()];
@@ -462,17 +460,17 @@ mod tests {
         let (p, t) = cube();
         let inward: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
         let mut same = t.clone();
-        assert_eq!(orient(&p, &mut same, Normals::Smooth, false), Turned::default());
+        assert_eq!(orient(&p, &mut same, Normals::Smooth(&position_slots(&p)), false), Turned::default());
         assert_eq!(same, t);
         // Glass is measured: six times the unit cube's volume.
         assert_eq!(
-            orient(&p, &mut same, Normals::Smooth, true),
+            orient(&p, &mut same, Normals::Smooth(&position_slots(&p)), true),
             Turned { enclosed: 6.0, ..Turned::default() }
         );
         assert_eq!(same, t);
         // Inward, but not glass: the winding changes nothing seen.
         let mut same = inward.clone();
-        assert_eq!(orient(&p, &mut same, Normals::Smooth, false), Turned::default());
+        assert_eq!(orient(&p, &mut same, Normals::Smooth(&position_slots(&p)), false), Turned::default());
         assert_eq!(same, inward);
     }
 
@@ -480,14 +478,14 @@ mod tests {
     fn glass_wound_inward_encloses_a_negative_volume() {
         let (p, t) = cube();
         let mut inward: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
-        let done = orient(&p, &mut inward, Normals::Smooth, true);
+        let done = orient(&p, &mut inward, Normals::Smooth(&position_slots(&p)), true);
         assert_eq!(done, Turned { enclosed: -6.0, ..Turned::default() });
         assert_eq!(turn_inside_out(&mut inward), 12);
         assert_eq!(inward, t);
         // With three of them outward: they turn to the other nine first.
         let mut mixed: Vec<[u32; 3]> =
             t.iter().enumerate().map(|(i, &t)| if i.is_multiple_of(4) { t } else { turned(t) }).collect();
-        let done = orient(&p, &mut mixed, Normals::Smooth, true);
+        let done = orient(&p, &mut mixed, Normals::Smooth(&position_slots(&p)), true);
         assert_eq!(done, Turned { against_neighbours: 3, enclosed: -6.0, ..Turned::default() });
         turn_inside_out(&mut mixed);
         assert_eq!(mixed, t);
@@ -504,7 +502,7 @@ mod tests {
         let mut hollow = t.clone();
         hollow.extend(t.iter().map(|&tri| turned(tri.map(|i| i + 8))));
         let before = hollow.clone();
-        let done = orient(&positions, &mut hollow, Normals::Smooth, true);
+        let done = orient(&positions, &mut hollow, Normals::Smooth(&position_slots(&positions)), true);
         assert_eq!(done, Turned { enclosed: 6.0 - 6.0 / 8.0, ..Turned::default() });
         assert_eq!(hollow, before);
     }
@@ -515,7 +513,7 @@ mod tests {
         for glass in [false, true] {
             let mut mixed: Vec<[u32; 3]> =
                 t.iter().enumerate().map(|(i, &t)| if i.is_multiple_of(4) { turned(t) } else { t }).collect();
-            let done = orient(&p, &mut mixed, Normals::Smooth, glass);
+            let done = orient(&p, &mut mixed, Normals::Smooth(&position_slots(&p)), glass);
             assert_eq!(done.against_neighbours, 3, "glass {glass}");
             assert_eq!(mixed, t);
         }
@@ -563,7 +561,7 @@ mod tests {
         for glass in [false, true] {
             let mut m = mixed.clone();
             assert_eq!(
-                orient(&p, &mut m, Normals::Smooth, glass),
+                orient(&p, &mut m, Normals::Smooth(&position_slots(&p)), glass),
                 Turned { against_neighbours: 5, ..Turned::default() }
             );
             assert_eq!(m, t);
@@ -571,7 +569,7 @@ mod tests {
         // Most turned: the others turn to them.
         mixed.iter_mut().for_each(|t| *t = turned(*t));
         let mut m = mixed.clone();
-        assert_eq!(orient(&p, &mut m, Normals::Smooth, true).against_neighbours, 5);
+        assert_eq!(orient(&p, &mut m, Normals::Smooth(&position_slots(&p)), true).against_neighbours, 5);
         assert_eq!(m, t.iter().map(|&t| turned(t)).collect::<Vec<_>>());
     }
 
@@ -583,13 +581,13 @@ mod tests {
         let (mut p, t) = cube();
         let mut inward: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
         inward.push([0, 1, 1]);
-        let done = orient(&p, &mut inward, Normals::Smooth, true);
+        let done = orient(&p, &mut inward, Normals::Smooth(&position_slots(&p)), true);
         assert_eq!(done, Turned { enclosed: -6.0, ..Turned::default() });
         p.push(Vec3::new(0.5, -1.0, 0.5));
         let mut fin: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
         fin.push([0, 1, 8]);
         let before = fin.clone();
-        assert_eq!(orient(&p, &mut fin, Normals::Smooth, true), Turned::default());
+        assert_eq!(orient(&p, &mut fin, Normals::Smooth(&position_slots(&p)), true), Turned::default());
         assert_eq!(fin, before);
     }
 
@@ -613,7 +611,10 @@ mod tests {
             })
             .collect();
         let mut m = t.clone();
-        assert_eq!(orient(&p, &mut m, Normals::Smooth, true), Turned { one_sided: 24, ..Turned::default() });
+        assert_eq!(
+            orient(&p, &mut m, Normals::Smooth(&position_slots(&p)), true),
+            Turned { one_sided: 24, ..Turned::default() }
+        );
         assert_eq!(m, t);
     }
 
