@@ -162,6 +162,35 @@ fn bpt_errors_name_the_bpt_file() {
     assert!(err.starts_with(&format!("{}:", bpt.display())) && err.contains("file ends"), "{err}");
 }
 
+/// A patch file whose every patch collapses (control points on a line or
+/// at one point) tessellates into triangles of no area, all left out: the
+/// error names the patch file, not "the scene has no geometry". One such
+/// patch beside a whole one is fine (the teapot's own lid collapses at its
+/// knob).
+#[test]
+fn a_patch_file_of_collapsed_patches_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let patch = |point: &dyn Fn(usize) -> [f32; 3]| -> String {
+        let rows: Vec<String> = (0..16).map(point).map(|[x, y, z]| format!("{x} {y} {z}\n")).collect();
+        format!("3 3\n{}", rows.concat())
+    };
+    let on_a_line = patch(&|i| [i as f32, 0.0, 0.0]);
+    let at_a_point = patch(&|_| [1.0, 2.0, 3.0]);
+    let square = patch(&|i| [(i % 4) as f32, (i / 4) as f32, 0.0]);
+    let scene = |bpt: &str| -> Result<caustix::scene::Scene, caustix::Error> {
+        write(dir.path(), "flat.bpt", bpt);
+        let text = format!("{QUAD_SCENE}\n[[teapot]]\nfile = \"flat.bpt\"\nmaterial = \"white\"\n");
+        Scene::load(&write(dir.path(), "s.toml", &text))
+    };
+    for collapsed in [format!("1\n{on_a_line}"), format!("2\n{on_a_line}{at_a_point}")] {
+        let err = scene(&collapsed).unwrap_err().to_string();
+        let named = format!("{}:", dir.path().join("flat.bpt").display());
+        assert!(err.starts_with(&named) && err.contains("every patch collapses"), "{err}");
+    }
+    let with_a_square = scene(&format!("2\n{on_a_line}{square}")).unwrap();
+    assert!(with_a_square.triangle_count() > 2);
+}
+
 /// A mesh named where a scene belongs (`caustix render bunny.obj`) is told
 /// apart from a broken scene: the error says what the file is and how to
 /// render it, not what TOML makes of its first line. A binary PLY is known

@@ -331,6 +331,20 @@ impl Builder<'_> {
         }
         let (positions, indices) = teapot::tessellate(&patches, level as usize);
         let mut m = Mesh::new(format!("teapot #{}", i + 1), positions, indices, None, material);
+        if m.indices.is_empty() {
+            // Mesh::new leaves out triangles of no area; a patch file whose
+            // every patch is flat to a line or a point leaves nothing, which
+            // would otherwise be reported as a scene without geometry.
+            let file = t.file.as_ref().map_or(PathBuf::from("scenes/data/teapot.bpt"), |f| self.relative(f));
+            return Err(Error::input(
+                &file,
+                format!(
+                    "every patch collapses to a line or a point (its control points are collinear or coincide), so teapot #{} \
+                     has no triangle with an area; check the file's coordinates",
+                    i + 1
+                ),
+            ));
+        }
         // The data is z-up; scenes are y-up: (x, y, z) -> (x, z, -y).
         m.place(
             &(transform_matrix(&t.transform) * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2)),
