@@ -320,7 +320,8 @@ pub fn trace(
             if keep {
                 stored.push(arrival.photon);
             }
-            // Caustic paths end at their first diffuse surface.
+            // Caustic paths (`L S+ D`) take no diffuse or glossy bounce: at a
+            // surface with a mirror or glass part too, they go on only by it.
             pass != Pass::Caustic
         },
     );
@@ -399,7 +400,9 @@ const CHUNK: u64 = 4096;
 /// Emits `count` photons from all lights in proportion to their power, each
 /// carrying its light's power over the photons that light emits, and traces
 /// them. `arrive` sees each photon at every diffuse or glossy surface it
-/// reaches and says whether the photon goes on. Photon `i` draws its
+/// reaches and says whether the photon may go on by a diffuse or glossy
+/// bounce (if not, it goes on only by the surface's mirror or glass part,
+/// if it has one, as a caustic path must). Photon `i` draws its
 /// random numbers as `numbers` says; the photons are split into chunks of
 /// consecutive indices, each with its own state from `start`, returned in
 /// index order, so the result never depends on the thread count; with them,
@@ -479,8 +482,9 @@ pub fn emit<T: Send>(
 }
 
 /// Follows one photon, showing it to `arrive` at every diffuse or glossy
-/// surface until `arrive` says stop, the photon is absorbed, or it has made
-/// `max_bounces` bounces. Its rays are added to `count`.
+/// surface, until it is absorbed, makes a diffuse or glossy bounce where
+/// `arrive` said it may not, or has made `max_bounces` bounces. Its rays are
+/// added to `count`.
 fn trace_photon(
     query: &SceneQuery,
     mut ray: Ray,
@@ -497,6 +501,7 @@ fn trace_photon(
         let m = query.material(&sp);
         let dir = ray.dir.normalize();
 
+        let mut may_scatter_diffusely = true;
         if m.is_glossy_or_diffuse() {
             let photon = Photon {
                 position: sp.p,
@@ -505,7 +510,12 @@ fn trace_photon(
                 normal: sp.ns,
                 indirect: diffuse_bounces > 0,
             };
-            if !arrive(&Arrival { photon, surface: &sp, diffuse_bounces, specular_bounces }) {
+            may_scatter_diffusely =
+                arrive(&Arrival { photon, surface: &sp, diffuse_bounces, specular_bounces });
+            // A caustic photon on a surface of mirror or glass and diffuse
+            // parts (an MTL `illum 3` paint, frosted glass) goes on through
+            // the first; ending it here lost that part's whole caustic.
+            if !may_scatter_diffusely && !m.is_specular() {
                 return;
             }
         }
@@ -521,8 +531,10 @@ fn trace_photon(
         let Some(s) = bsdf.sample(xi / q, rng) else { return };
         if s.kind.is_specular() {
             specular_bounces += 1;
-        } else {
+        } else if may_scatter_diffusely {
             diffuse_bounces += 1;
+        } else {
+            return;
         }
         power *= s.weight / q;
         ray = sp.spawn(s.wi);
