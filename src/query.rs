@@ -301,11 +301,22 @@ impl SurfacePoint {
         }
     }
 
+    /// At a dielectric of index `ior` (inside), the indices of refraction on
+    /// the side the ray arrived from and on the other side: the outside is
+    /// air, and which side is inside follows the geometric normal.
+    pub fn indices(&self, ior: f32) -> (f32, f32) {
+        if self.front {
+            (1.0, ior)
+        } else {
+            (ior, 1.0)
+        }
+    }
+
     /// At a smooth dielectric of index `ior` (inside), the Fresnel reflectance
     /// for `dir` and the refracted direction (`None` on total internal
     /// reflection). Which side is inside follows the geometric normal.
     pub fn refract(&self, dir: Vec3, ior: f32) -> (f32, Option<Vec3>) {
-        let (n1, n2) = if self.front { (1.0, ior) } else { (ior, 1.0) };
+        let (n1, n2) = self.indices(ior);
         let kr = optics::fresnel_dielectric((-dir.dot(self.ns)).clamp(0.0, 1.0), n1, n2);
         if kr >= 1.0 {
             return (1.0, None);

@@ -32,7 +32,7 @@ use rayon::prelude::*;
 
 use super::Context;
 use crate::accel::Ray;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, RadianceScale};
 use crate::config::Region;
 use crate::film::Film;
 use crate::light::Light;
@@ -257,12 +257,13 @@ fn sample(ctx: &Context, (x, y): (u32, u32), stream: u64, index: u32, count: &mu
     };
     let jitter: Vec2 = rng.uniform2();
     let ray = ctx.scene().camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, config.width, config.height);
-    emission_along(ctx, ray, 0, Vec3::ONE, &mut rng, count)
+    emission_along(ctx, ray, 0, (Vec3::ONE, RadianceScale::ONE), &mut rng, count)
 }
 
 /// The light seen along `ray` directly or through mirrors and glass (the
 /// `emission` component of every integrator), `weight` the weight the ray
-/// carries from the camera and `depth` the rays before it. At each surface
+/// carries from the camera with the scale of its refractions, and `depth`
+/// the rays before it. At each surface
 /// it follows every specular lobe (mirror, and glass's reflection and
 /// refraction, as Whitted's recursion does: a lobe chosen at random made
 /// the light's images through glass noisier than the renders' own); a lobe
@@ -273,14 +274,14 @@ fn emission_along(
     ctx: &Context,
     ray: Ray,
     depth: u32,
-    weight: Vec3,
+    (weight, scale): (Vec3, RadianceScale),
     rng: &mut Rng,
     count: &mut RayCount,
 ) -> Vec3 {
     let query = &ctx.query;
     let sp = match query.first(&ray, count) {
         None => return Vec3::ZERO,
-        Some(Interaction::Emitter { radiance, .. }) => return weight * radiance,
+        Some(Interaction::Emitter { radiance, .. }) => return weight * radiance * scale.factor(),
         Some(Interaction::Surface(sp)) => sp,
     };
     if depth + 1 >= ctx.config.max_depth {
@@ -288,8 +289,8 @@ fn emission_along(
     }
     let bsdf = Bsdf::new(query.material(&sp), &sp, ray.dir.normalize());
     let mut sum = Vec3::ZERO;
-    for (lobe, dir) in bsdf.specular_branches() {
-        let mut carried = weight * lobe;
+    for branch in bsdf.specular_branches() {
+        let mut carried = weight * branch.weight;
         let most = carried.max_element();
         if most <= 0.0 {
             continue;
@@ -300,7 +301,8 @@ fn emission_along(
             }
             carried *= FAINT / most;
         }
-        sum += emission_along(ctx, sp.spawn(dir), depth + 1, carried, rng, count);
+        let on = (carried, scale.after(&branch));
+        sum += emission_along(ctx, sp.spawn(branch.wi), depth + 1, on, rng, count);
     }
     sum
 }

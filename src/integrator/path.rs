@@ -19,7 +19,7 @@ use super::pixels::{average_over_pixel, render_pixels};
 use super::unreached::Unreached;
 use super::{Context, Integrator, Progress, Rendered};
 use crate::accel::Ray;
-use crate::bsdf::{russian_roulette, Bsdf};
+use crate::bsdf::{russian_roulette, Bsdf, RadianceScale};
 use crate::film::Sample;
 use crate::query::{Interaction, RayCount};
 use crate::sampling::Rng;
@@ -93,6 +93,9 @@ fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) ->
     let query = &ctx.query;
     let mut out = Sample::default();
     let mut throughput = Vec3::ONE;
+    // Kept apart from the throughput, which Russian roulette reads: inside
+    // glass the light found is worth less at the camera, not the path.
+    let mut scale = RadianceScale::ONE;
     let mut class = PathClass::Specular;
     let mut found_surface = false; // the first diffuse or glossy one, for albedo and normal
                                    // Solid-angle pdf of the last non-delta bounce, for MIS on lights it
@@ -114,7 +117,7 @@ fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) ->
                         p_bsdf / (p_bsdf + p_light)
                     }
                 };
-                *class.slot(&mut out) += throughput * radiance * weight;
+                *class.slot(&mut out) += throughput * radiance * weight * scale.factor();
                 return out;
             }
             Some(Interaction::Surface(sp)) => sp,
@@ -131,12 +134,13 @@ fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) ->
             }
             // A light sample makes the path one diffuse vertex longer.
             let light = direct_light(query, &sp, &bsdf, LightSampling::MultipleImportance, rng, count);
-            *class.after(false).slot(&mut out) += throughput * light;
+            *class.after(false).slot(&mut out) += throughput * light * scale.factor();
         }
 
         // Continue by sampling the BSDF.
         let Some(s) = bsdf.sample(rng.uniform(), rng) else { return out };
         throughput *= s.weight;
+        scale = scale.after(&s);
         last_pdf = s.pdf;
         last_point = sp.p;
         class = class.after(s.kind.is_specular());

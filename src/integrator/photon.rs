@@ -15,7 +15,7 @@ use super::whitted::{Lit, Shading, SurfaceLight, WhittedTracer};
 use super::{Context, Integrator, Progress, Rendered, Tuned};
 use crate::accel::Hit;
 use crate::accel::Ray;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, RadianceScale};
 use crate::config::{Estimate, PhotonConfig, RenderConfig};
 use crate::light::Light;
 use crate::photon::guide::GatherGuide;
@@ -461,11 +461,16 @@ impl MapLight<'_> {
         let scene = self.query.scene;
         let (mut ray, mut first, mut read, mut weight) = (*ray, first, read, Vec3::ONE);
         let (mut sum, mut lights) = (Vec3::ZERO, LightsSeen::Not);
+        // Across glass, what is found is worth (eta_i / eta_t)^2 here
+        // ([`RadianceScale`]); apart from `weight`, so that in and out again
+        // leaves it exactly as it was.
+        let mut scale = RadianceScale::ONE;
         for bounces in 0.. {
             let hit = match first {
                 Some(Interaction::Surface(hit)) => hit,
                 Some(Interaction::Emitter { light, t, radiance }) => {
-                    return sum + weight * radiance * self.light_share(lights, &ray, light, t);
+                    return sum
+                        + weight * radiance * self.light_share(lights, &ray, light, t) * scale.factor();
                 }
                 None => return sum,
             };
@@ -478,12 +483,13 @@ impl MapLight<'_> {
                 });
                 let sp = match texel {
                     Some(e) => {
-                        sum += weight * m.diffuse * FRAC_1_PI * e;
+                        sum += weight * m.diffuse * FRAC_1_PI * e * scale.factor();
                         None
                     }
                     None => {
                         let sp = SurfacePoint::new(scene, &ray, &hit);
-                        sum += weight * global.precomputed_radiance(sp.p, sp.ns, m, &self.global_estimate);
+                        let radiance = global.precomputed_radiance(sp.p, sp.ns, m, &self.global_estimate);
+                        sum += weight * radiance * scale.factor();
                         Some(sp)
                     }
                 };
@@ -513,7 +519,7 @@ impl MapLight<'_> {
                         rng,
                         count,
                     );
-                    sum += weight * reflected / q;
+                    sum += weight * reflected / q * scale.factor();
                     let wi = bsdf.sample_glossy(rng.uniform2());
                     let (cos, pdf) = (wi.dot(sp.ns), bsdf.glossy_pdf(wi));
                     // (A density below the normal floats, as far off the lobe as
@@ -527,6 +533,7 @@ impl MapLight<'_> {
                 } else if u < q + specular {
                     let Some(s) = bsdf.sample_specular(rng) else { return sum };
                     weight *= s.weight / specular;
+                    scale = scale.after(&s);
                     lights = lights.through_specular();
                     ray = sp.spawn(s.wi);
                 } else {
@@ -540,6 +547,7 @@ impl MapLight<'_> {
                 let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
                 let Some(s) = bsdf.sample_specular(rng) else { return sum };
                 weight *= s.weight;
+                scale = scale.after(&s);
                 lights = lights.through_specular();
                 ray = sp.spawn(s.wi);
             }

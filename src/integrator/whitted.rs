@@ -15,7 +15,7 @@ use super::pixels::{average_over_pixel, render_pixels};
 use super::unreached::Unreached;
 use super::{Context, Integrator, Progress, Rendered};
 use crate::accel::Ray;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, RadianceScale};
 use crate::film::Sample;
 use crate::query::{Interaction, RayCount, SurfacePoint};
 use crate::sampling::Rng;
@@ -108,7 +108,7 @@ impl WhittedTracer<'_> {
     pub fn render(&self, progress: &Progress, notes: Vec<String>) -> Rendered {
         let (film, rays) = render_pixels(self.ctx, progress, |x, y, rng, count| {
             average_over_pixel(self.ctx, (x, y), rng, |ray, rng| {
-                self.radiance(&ray, 0, Vec3::ONE, rng, count)
+                self.radiance(&ray, 0, (Vec3::ONE, RadianceScale::ONE), rng, count)
             })
         });
         Rendered::new(film, rays, notes)
@@ -117,12 +117,13 @@ impl WhittedTracer<'_> {
     /// Radiance arriving along `ray`, split into components (see
     /// [`Sample`]). `depth` counts the specular bounces so far;
     /// `throughput` is what the caller will multiply the result by (for the
-    /// cut-off).
+    /// cut-off), and `scale` that of the refractions on the way, which the
+    /// light found here is multiplied by ([`RadianceScale`]).
     pub fn radiance(
         &self,
         ray: &Ray,
         depth: u32,
-        throughput: Vec3,
+        (throughput, scale): (Vec3, RadianceScale),
         rng: &mut Rng,
         count: &mut RayCount,
     ) -> Sample {
@@ -130,7 +131,7 @@ impl WhittedTracer<'_> {
         let sp = match query.first(ray, count) {
             None => return Sample::default(),
             Some(Interaction::Emitter { radiance, .. }) => {
-                return Sample { emission: radiance, ..Sample::default() }
+                return Sample { emission: radiance * scale.factor(), ..Sample::default() }
             }
             Some(Interaction::Surface(sp)) => sp,
         };
@@ -154,17 +155,21 @@ impl WhittedTracer<'_> {
                 out.caustic = lit.caustic;
                 out.indirect += lit.indirect;
             }
+            let f = scale.factor();
+            (out.direct, out.caustic, out.indirect) = (out.direct * f, out.caustic * f, out.indirect * f);
             (out.albedo, out.normal) = (m.diffuse + m.specular, sp.ns);
         }
         if depth + 1 >= config.max_depth {
             return out;
         }
-        for (weight, dir) in bsdf.specular_branches() {
-            let carried = throughput * weight;
+        for branch in bsdf.specular_branches() {
+            let carried = throughput * branch.weight;
             if carried.max_element() < config.min_throughput {
                 continue;
             }
-            let mut seen = self.radiance(&sp.spawn(dir), depth + 1, carried, rng, count).through(weight);
+            let on = (carried, scale.after(&branch));
+            let mut seen =
+                self.radiance(&sp.spawn(branch.wi), depth + 1, on, rng, count).through(branch.weight);
             if bsdf.has_smooth() {
                 // The albedo and normal are this surface's own.
                 (seen.albedo, seen.normal) = (Vec3::ZERO, Vec3::ZERO);

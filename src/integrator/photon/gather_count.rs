@@ -38,7 +38,7 @@ use rayon::prelude::*;
 
 use super::MapLight;
 use crate::accel::Ray;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, RadianceScale};
 use crate::film::Sample;
 use crate::integrator::emission::LightEdges;
 use crate::integrator::pixels::average_over_pixel;
@@ -144,10 +144,11 @@ fn estimates(
 /// the part of a photon-mapped sample no gather ray changes, and whose
 /// noise (a light's edges, seen directly or in a mirror) sits in a few
 /// pixels that a sparse pilot would miss.
-fn lights_seen(ctx: &Context, ray: &Ray, depth: u32, count: &mut RayCount) -> Vec3 {
+/// `scale` is that of the refractions on the way ([`RadianceScale`]).
+fn lights_seen(ctx: &Context, ray: &Ray, depth: u32, scale: RadianceScale, count: &mut RayCount) -> Vec3 {
     let sp = match ctx.query.first(ray, count) {
         None => return Vec3::ZERO,
-        Some(Interaction::Emitter { radiance, .. }) => return radiance,
+        Some(Interaction::Emitter { radiance, .. }) => return radiance * scale.factor(),
         Some(Interaction::Surface(sp)) => sp,
     };
     if depth + 1 >= ctx.config.max_depth {
@@ -155,13 +156,13 @@ fn lights_seen(ctx: &Context, ray: &Ray, depth: u32, count: &mut RayCount) -> Ve
     }
     let bsdf = Bsdf::new(ctx.query.material(&sp), &sp, ray.dir.normalize());
     bsdf.specular_branches()
-        .map(|(weight, dir)| weight * lights_seen(ctx, &sp.spawn(dir), depth + 1, count))
+        .map(|b| b.weight * lights_seen(ctx, &sp.spawn(b.wi), depth + 1, scale.after(&b), count))
         .sum()
 }
 
 /// A camera sample of the lights seen along `ray` ([`lights_seen`]), as emission.
 fn lights_sample(ctx: &Context, ray: &Ray, _: &mut Rng, count: &mut RayCount) -> Sample {
-    Sample { emission: lights_seen(ctx, ray, 0, count), ..Sample::default() }
+    Sample { emission: lights_seen(ctx, ray, 0, RadianceScale::ONE, count), ..Sample::default() }
 }
 
 /// The variance of `part` of one estimate, from two independent ones of
@@ -226,7 +227,7 @@ pub(super) fn choose(ctx: &Context, light: &MapLight, budget: f64) -> (u32, Stri
             let light = MapLight { gather_per_sample: gather, ..*light };
             let tracer = light.tracer(ctx);
             let traced = |ctx: &Context, ray: &Ray, rng: &mut Rng, count: &mut RayCount| {
-                WhittedTracer { ctx, ..tracer }.radiance(ray, 0, Vec3::ONE, rng, count)
+                WhittedTracer { ctx, ..tracer }.radiance(ray, 0, (Vec3::ONE, RadianceScale::ONE), rng, count)
             };
             let (a, time_a) = estimates(ctx, &pixels, (PILOT_SAMPLES, seed), traced, &mut rays);
             let (b, time_b) =

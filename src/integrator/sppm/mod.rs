@@ -52,7 +52,7 @@ use super::direct::{direct_light, LightSampling};
 use super::rounds::{deviation, luminance, split_by_noise, LAST_ROUND_SHARE};
 use super::to_camera::CameraView;
 use super::{Context, Integrator, Progress, Rendered};
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, RadianceScale};
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
 use crate::photon::disc::DiscShare;
@@ -961,12 +961,16 @@ fn visible_point(
     let mut ray =
         ctx.scene().camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, config.width, config.height);
     let mut weight = Vec3::ONE;
+    // What light found here is worth at the camera across refractions, kept
+    // apart from the weight: a path that enters glass and leaves it again
+    // is back at exactly 1.
+    let mut scale = RadianceScale::ONE;
     let seen = &mut state.seen;
     let mut found_surface = false; // the first diffuse or glossy one, for albedo and normal
     for bounce in 0..config.max_depth {
         let sp = match query.first(&ray, count)? {
             Interaction::Emitter { radiance, .. } => {
-                seen.emission += weight * radiance;
+                seen.emission += weight * radiance * scale.factor();
                 return None;
             }
             Interaction::Surface(sp) => sp,
@@ -978,8 +982,9 @@ fn visible_point(
         let bsdf = Bsdf::new(m, &sp, ray.dir.normalize());
         if bsdf.has_smooth() {
             let sampling = LightSampling::Stratified { samples: config.light_samples_or(LIGHT_SAMPLES) };
-            seen.direct += weight * direct_light(query, &sp, &bsdf, sampling, rng, count);
-            seen.indirect += weight * m.diffuse * config.ambient;
+            let f = scale.factor();
+            seen.direct += weight * direct_light(query, &sp, &bsdf, sampling, rng, count) * f;
+            seen.indirect += weight * m.diffuse * config.ambient * f;
             if !found_surface {
                 found_surface = true;
                 seen.albedo += weight * (m.diffuse + m.specular);
@@ -992,7 +997,7 @@ fn visible_point(
                     n: sp.ns,
                     wo: bsdf.wo(),
                     material: sp.material,
-                    weight: weight / stop,
+                    weight: weight / stop * f,
                     radius: state.radius,
                     depth: bounce + 1,
                 });
@@ -1001,6 +1006,7 @@ fn visible_point(
         }
         let s = bsdf.sample_specular(rng)?;
         weight *= s.weight;
+        scale = scale.after(&s);
         if weight == Vec3::ZERO {
             return None;
         }

@@ -40,7 +40,7 @@ use super::to_camera::CameraView;
 use super::unreached::Unreached;
 use super::{Context, Integrator, Progress, Rendered, SampleRange};
 use crate::accel::Ray;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, BsdfSample, RadianceScale};
 use crate::config::RenderConfig;
 use crate::film::{Film, Sample};
 use crate::light::Light;
@@ -130,9 +130,15 @@ impl Subpath {
     }
 
     /// Samples the BSDF to continue, with Russian roulette by the surface's
-    /// albedo; updates the weight and the quantities. The ray on, and
-    /// whether a mirror or glass sent it; `None`: the subpath ends.
-    fn scatter(&mut self, bsdf: &Bsdf, sp: &SurfacePoint, pass: &Pass, rng: &mut Rng) -> Option<(Ray, bool)> {
+    /// albedo; updates the weight and the quantities. The ray on, and the
+    /// sample that sent it; `None`: the subpath ends.
+    fn scatter(
+        &mut self,
+        bsdf: &Bsdf,
+        sp: &SurfacePoint,
+        pass: &Pass,
+        rng: &mut Rng,
+    ) -> Option<(Ray, BsdfSample)> {
         let s = bsdf.sample(rng.uniform(), rng)?;
         let survive = continuation(bsdf);
         if rng.uniform() >= survive {
@@ -156,8 +162,7 @@ impl Subpath {
             }
         }
         self.throughput *= s.weight / survive;
-        (self.throughput != Vec3::ZERO && self.throughput.is_finite())
-            .then(|| (sp.spawn(s.wi), s.kind.is_specular()))
+        (self.throughput != Vec3::ZERO && self.throughput.is_finite()).then(|| (sp.spawn(s.wi), s))
     }
 }
 
@@ -491,7 +496,8 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
         if path.length + 2 > pass.max_length {
             return;
         }
-        let Some((next, specular)) = path.scatter(&bsdf, &sp, pass, rng) else { return };
+        let Some((next, s)) = path.scatter(&bsdf, &sp, pass, rng) else { return };
+        let specular = s.kind.is_specular();
         history = LightHistory {
             scattered: history.scattered || !specular,
             specular: history.specular || specular,
@@ -556,6 +562,11 @@ fn camera_path(
     };
     let mut out = Sample::default();
     let mut class = PathClass::Specular;
+    // What light found here is worth at the camera across refractions
+    // ([`RadianceScale`]): the camera path carries radiance, the light
+    // subpaths power. Kept apart from the throughput, so that a path into
+    // glass and out again is back at exactly 1.
+    let mut scale = RadianceScale::ONE;
     let mut found_surface = false;
     // Where the path last scattered (with many lights, the light sample
     // there chose among them by its place).
@@ -575,7 +586,8 @@ fn camera_path(
                         let nee = LightSamples::mis_factor(lights, light, last_point);
                         let w_camera = mis(pdfs.direct_area * nee) * path.d_vcm
                             + mis(pass.pick_of(lights, light) * pdfs.emit) * path.d_vc;
-                        *class.slot(&mut out) += finite(path.throughput * radiance / (1.0 + w_camera) as f32);
+                        *class.slot(&mut out) +=
+                            finite(path.throughput * radiance / (1.0 + w_camera) as f32 * scale.factor());
                     }
                 }
                 return out;
@@ -602,15 +614,16 @@ fn camera_path(
         if bsdf.has_smooth() {
             // A light sample makes the path one diffuse vertex longer.
             let direct = next_event(ctx, pass, &sp, &bsdf, &path, rng, count);
-            *class.after(false).slot(&mut out) += path.throughput * direct;
+            let throughput = path.throughput * scale.factor();
+            *class.after(false).slot(&mut out) += throughput * direct;
             for v in vertices {
                 if v.path.length + 1 + path.length > pass.max_length {
                     break;
                 }
-                out.indirect += path.throughput * connect(ctx, pass, &sp, &bsdf, &path, v, count);
+                out.indirect += throughput * connect(ctx, pass, &sp, &bsdf, &path, v, count);
             }
             if let Some((grid, all)) = merge {
-                let scale = path.throughput * pass.vm_normalization;
+                let scale = throughput * pass.vm_normalization;
                 grid.visit(sp.p, |i| {
                     let v = &all[i];
                     // As photon estimates: not the other wall of a corner,
@@ -634,9 +647,10 @@ fn camera_path(
                 });
             }
         }
-        let Some((next, specular)) = path.scatter(&bsdf, &sp, pass, rng) else { return out };
+        let Some((next, s)) = path.scatter(&bsdf, &sp, pass, rng) else { return out };
+        scale = scale.after(&s);
         last_point = sp.p;
-        class = class.after(specular);
+        class = class.after(s.kind.is_specular());
         ray = next;
         path.length += 1;
     }
