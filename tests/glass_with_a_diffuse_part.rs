@@ -14,6 +14,8 @@
 //! and photon mapping, while the path tracer (which reads no light
 //! subpath) was right.
 
+mod common;
+
 use std::path::Path;
 
 use caustix::accel::Backend;
@@ -27,19 +29,7 @@ use caustix::{render, RenderConfig};
 /// internal reflection, and none is absorbed (at depth 32 the image lost
 /// 0.4% to the cut, at 16 3-4%).
 fn furnace() -> Scene {
-    let power = std::f64::consts::PI * 16.0;
-    let lights = [
-        ([0, 2, 0], [4, 0, 0], [0, 0, 4]),
-        ([0, -2, 0], [4, 0, 0], [0, 0, -4]),
-        ([-2, 0, 0], [0, 4, 0], [0, 0, 4]),
-        ([2, 0, 0], [0, 0, 4], [0, 4, 0]),
-        ([0, 0, -2], [4, 0, 0], [0, 4, 0]),
-        ([0, 0, 2], [0, 4, 0], [4, 0, 0]),
-    ]
-    .map(|(center, u, v)| {
-        format!("[[area_light]]\ncenter = {center:?}\nu = {u:?}\nv = {v:?}\npower = {power}\n")
-    })
-    .concat();
+    let lights = common::box_of_lights();
     let text = format!(
         r#"
         [camera]

@@ -62,6 +62,25 @@ pub fn furnace_scaled(albedo: f32, scale: f64, tables: &str) -> caustix::scene::
     caustix::scene::Scene::from_toml(&text, Path::new("furnace.toml")).unwrap()
 }
 
+/// Six area lights of radiance 1 facing in (power `pi A`, `A` = 16): the
+/// walls of a closed box 4 wide around the origin, as scene-file tables.
+/// Whatever inside it absorbs nothing looks exactly like them.
+pub fn box_of_lights() -> String {
+    let power = std::f64::consts::PI * 16.0;
+    [
+        ([0, 2, 0], [4, 0, 0], [0, 0, 4]),
+        ([0, -2, 0], [4, 0, 0], [0, 0, -4]),
+        ([-2, 0, 0], [0, 4, 0], [0, 0, 4]),
+        ([2, 0, 0], [0, 0, 4], [0, 4, 0]),
+        ([0, 0, -2], [4, 0, 0], [0, 4, 0]),
+        ([0, 0, 2], [0, 4, 0], [4, 0, 0]),
+    ]
+    .map(|(center, u, v)| {
+        format!("[[area_light]]\ncenter = {center:?}\nu = {u:?}\nv = {v:?}\npower = {power}\n")
+    })
+    .concat()
+}
+
 /// The summed area of the first mesh's triangles.
 pub fn mesh_area(scene: &caustix::scene::Scene) -> f32 {
     scene.meshes[0].area() as f32

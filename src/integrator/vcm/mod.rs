@@ -177,6 +177,29 @@ fn finite(value: Vec3) -> Vec3 {
     }
 }
 
+/// What light carried by a light subpath takes past a surface whose shading
+/// normal is not its geometric one, beyond the BSDF (Veach 1997, section
+/// 5.3; pbrt's `CorrectShadingNormal`): with `from` the unit direction back
+/// to where the light came from and `to` the one it goes on in,
+/// `|from.ns| |to.ng| / (|from.ng| |to.ns|)`. A BSDF on shading normals is
+/// not symmetric, and light subpaths run the other way to the camera's:
+/// without it, the light tracer showed a smooth sphere of few triangles
+/// with its facets' pattern (the middle of a furnace's sphere of 80
+/// triangles 9% too bright, pixels 0.4 to 1.5 of the path tracer's), and
+/// bidirectional path tracing its blocks 2% dark. Exactly 1 where the
+/// normals agree.
+fn adjoint_shading(sp: &SurfacePoint, from: Vec3, to: Vec3) -> f32 {
+    let num = from.dot(sp.ns).abs() * to.dot(sp.ng).abs();
+    let den = from.dot(sp.ng).abs() * to.dot(sp.ns).abs();
+    if num == den {
+        1.0
+    } else if den > 0.0 {
+        num / den
+    } else {
+        0.0
+    }
+}
+
 /// The chance a subpath goes on at a surface: its albedo's largest channel.
 fn continuation(bsdf: &Bsdf) -> f32 {
     bsdf.albedo().max_element().clamp(0.0, 1.0)
@@ -497,6 +520,10 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
             return;
         }
         let Some((next, s)) = path.scatter(&bsdf, &sp, pass, rng) else { return };
+        path.throughput *= adjoint_shading(&sp, -dir, s.wi);
+        if path.throughput == Vec3::ZERO || !path.throughput.is_finite() {
+            return;
+        }
         let specular = s.kind.is_specular();
         history = LightHistory {
             scattered: history.scattered || !specular,
@@ -518,18 +545,27 @@ fn connect_to_camera(
     rays: &mut RayCount,
 ) -> Option<(usize, Vec3)> {
     let view = CameraView::of(ctx, sp.p)?;
-    let lobes = lobes(bsdf, sp, view.to_eye)?;
+    // The camera must be on the surface's side, not above the shading
+    // normal's hemisphere: at a smooth mesh's outline the eye may lie below
+    // it, where the path tracer still sees the surface's light.
+    if view.to_eye.dot(sp.ng) <= 0.0 {
+        return None;
+    }
+    let f = bsdf.eval(view.to_eye);
     // The camera's density of this point, per unit area of the surface.
-    let camera_area_pdf = view.area_pdf(lobes.cos);
+    let camera_area_pdf = view.area_pdf(view.to_eye.dot(sp.ns).abs());
     let weight = match pass.mode {
         Mode::LightTracing => 1.0,
         _ => {
+            let reverse = bsdf.pdf_reverse(view.to_eye) * continuation(bsdf);
             let w_light = mis(camera_area_pdf / pass.light_paths as f32)
-                * (pass.vm_weight + path.d_vcm + path.d_vc * mis(lobes.reverse));
+                * (pass.vm_weight + path.d_vcm + path.d_vc * mis(reverse));
             (1.0 / (w_light + 1.0)) as f32
         }
     };
-    let value = path.throughput * lobes.f * (weight * camera_area_pdf / pass.light_paths as f32);
+    let value = path.throughput
+        * f
+        * (weight * camera_area_pdf / pass.light_paths as f32 * adjoint_shading(sp, bsdf.wo(), view.to_eye));
     if finite(value) == Vec3::ZERO || !view.unblocked(ctx, sp, rays) {
         return None;
     }
@@ -725,8 +761,11 @@ fn connect(
         mis(camera_makes_light) * (pass.vm_weight + v.path.d_vcm + v.path.d_vc * mis(light_side.reverse));
     let w_camera =
         mis(light_makes_camera) * (pass.vm_weight + path.d_vcm + path.d_vc * mis(camera_side.reverse));
-    let value =
-        camera_side.f * light_side.f * v.path.throughput * (geometry / (w_light + 1.0 + w_camera) as f32);
+    let light_turns = adjoint_shading(&v.sp, -v.dir, -dir);
+    let value = camera_side.f
+        * light_side.f
+        * v.path.throughput
+        * (geometry / (w_light + 1.0 + w_camera) as f32 * light_turns);
     if finite(value) == Vec3::ZERO || ctx.query.occluded(&sp.spawn_to(v.sp.p), count) {
         return Vec3::ZERO;
     }
