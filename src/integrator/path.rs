@@ -93,8 +93,9 @@ fn radiance(ctx: &Context, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) ->
     let query = &ctx.query;
     let mut out = Sample::default();
     let mut throughput = Vec3::ONE;
-    // Kept apart from the throughput, which Russian roulette reads: inside
-    // glass the light found is worth less at the camera, not the path.
+    // What light found here is worth at the camera across refractions, kept
+    // apart from the throughput, which Russian roulette reads: the medium
+    // changes what the light is worth, not the path's chance to go on.
     let mut scale = RadianceScale::ONE;
     let mut class = PathClass::Specular;
     let mut found_surface = false; // the first diffuse or glossy one, for albedo and normal

@@ -333,8 +333,8 @@ impl Builder<'_> {
         let mut m = Mesh::new(format!("teapot #{}", i + 1), positions, indices, None, material);
         if m.indices.is_empty() {
             // Mesh::new leaves out triangles of no area; a patch file whose
-            // every patch is flat to a line or a point leaves nothing, which
-            // would otherwise be reported as a scene without geometry.
+            // every patch collapses to a line or a point leaves nothing,
+            // which would otherwise be reported as a scene without geometry.
             let file = t.file.as_ref().map_or(PathBuf::from("scenes/data/teapot.bpt"), |f| self.relative(f));
             return Err(Error::input(
                 &file,

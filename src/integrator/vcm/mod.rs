@@ -659,7 +659,7 @@ fn camera_path(
                 out.indirect += throughput * connect(ctx, pass, &sp, &bsdf, &path, v, count);
             }
             if let Some((grid, all)) = merge {
-                let scale = throughput * pass.vm_normalization;
+                let merged = throughput * pass.vm_normalization;
                 grid.visit(sp.p, |i| {
                     let v = &all[i];
                     // As photon estimates: not the other wall of a corner,
@@ -679,7 +679,7 @@ fn camera_path(
                         _ => Component::Indirect,
                     };
                     *component.slot(&mut out) +=
-                        finite(scale * lobes.f * v.path.throughput / (w_light + 1.0 + w_camera) as f32);
+                        finite(merged * lobes.f * v.path.throughput / (w_light + 1.0 + w_camera) as f32);
                 });
             }
         }
