@@ -299,10 +299,11 @@ impl Builder<'_> {
     }
 
     fn teapot(&self, i: usize, t: &file::TeapotSection, material: usize) -> Result<Mesh> {
+        // The patch file, named in errors: the built-in one by its place in the repository.
+        let bpt_path = t.file.as_ref().map_or(PathBuf::from("scenes/data/teapot.bpt"), |f| self.relative(f));
         let patches = match &t.file {
-            None => teapot::parse_bpt(teapot::TEAPOT_BPT, Path::new("scenes/data/teapot.bpt"))?,
-            Some(file) => {
-                let bpt_path = self.relative(file);
+            None => teapot::parse_bpt(teapot::TEAPOT_BPT, &bpt_path)?,
+            Some(_) => {
                 let text = crate::files::read_text(&bpt_path, crate::files::MAX_TEXT_BYTES)?;
                 teapot::parse_bpt(&text, &bpt_path)?
             }
@@ -335,9 +336,8 @@ impl Builder<'_> {
             // Mesh::new leaves out triangles of no area; a patch file whose
             // every patch collapses to a line or a point leaves nothing,
             // which would otherwise be reported as a scene without geometry.
-            let file = t.file.as_ref().map_or(PathBuf::from("scenes/data/teapot.bpt"), |f| self.relative(f));
             return Err(Error::input(
-                &file,
+                &bpt_path,
                 format!(
                     "every patch collapses to a line or a point (its control points are collinear or coincide), so teapot #{} \
                      has no triangle with an area; check the file's coordinates",
