@@ -289,6 +289,16 @@ impl<'l> LightSamples<'l> {
         Self::expected_count(lights, light, p, LightSampling::MultipleImportance)
     }
 
+    /// The density of `samples` stratified shadow rays a light at `from`
+    /// towards the point `on` of `light` (one of `lights`): the number of
+    /// samples it takes there ([`LightSamples::expected_count`]) times
+    /// each one's density. The shadow rays' side of the balance heuristic
+    /// [`direct_light_against`] weighs a lobe's rays against.
+    pub fn stratified_density(lights: &Lights, light: &Light, samples: u32, from: Vec3, on: Vec3) -> f32 {
+        let sampling = LightSampling::Stratified { samples };
+        Self::expected_count(lights, light, from, sampling) * light.pdf_solid_angle(on, from)
+    }
+
     /// How many samples `light` (one of `lights`) takes at `p` under
     /// `sampling`, or is expected to where the point draws among the
     /// lights: what its [`Light::pdf_solid_angle`] is multiplied by for

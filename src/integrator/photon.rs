@@ -10,7 +10,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use glam::{Vec2, Vec3};
 
-use super::direct::{direct_light_against, Against, LightSamples, LightSampling};
+use super::direct::{direct_light_against, Against, LightSamples};
 use super::whitted::{Lit, Shading, SurfaceLight, WhittedTracer};
 use super::{Context, Integrator, Progress, Rendered, Tuned};
 use crate::accel::Hit;
@@ -573,9 +573,7 @@ impl MapLight<'_> {
     /// ([`LightSamples::expected_count`]) times their density towards the
     /// point `on` of it: the shadow rays' side of the balance heuristic.
     fn shadow_ray_density(&self, light: &Light, from: Vec3, on: Vec3) -> f32 {
-        let sampling = LightSampling::Stratified { samples: self.light_samples };
-        LightSamples::expected_count(&self.query.scene.lights, light, from, sampling)
-            * light.pdf_solid_angle(on, from)
+        LightSamples::stratified_density(&self.query.scene.lights, light, self.light_samples, from, on)
     }
 
     /// The hit of a gather ray `ray` that reads a record (on a diffuse or

@@ -285,6 +285,9 @@ pub struct Arrival<'a> {
     pub diffuse_bounces: u32,
     /// Mirror or glass bounces before this surface.
     pub specular_bounces: u32,
+    /// Whether it left a point or spot light, which no ray can meet (else
+    /// an area light's front, which rays from the camera may meet).
+    pub from_delta_light: bool,
 }
 
 /// Emits `count` photons in total from all lights (shared in proportion to
@@ -471,7 +474,8 @@ pub fn emit<T: Send>(
                     None => scene.lights[light].emit(u, v),
                 };
                 let power = power / per_light[light] as f32;
-                trace_photon(query, ray, power, max_bounces, &mut rng, &mut rays, &mut |a| {
+                let emitted = Emitted { ray, power, from_delta_light: scene.lights[light].is_delta() };
+                trace_photon(query, emitted, max_bounces, &mut rng, &mut rays, &mut |a| {
                     arrive(&mut state, a)
                 });
             }
@@ -481,19 +485,27 @@ pub fn emit<T: Send>(
     (chunks, counts.into_iter().sum())
 }
 
+/// A photon as it leaves its light.
+struct Emitted {
+    ray: Ray,
+    power: Vec3,
+    /// Whether the light is a point or spot light.
+    from_delta_light: bool,
+}
+
 /// Follows one photon, showing it to `arrive` at every diffuse or glossy
 /// surface, until it is absorbed, makes a diffuse or glossy bounce where
 /// `arrive` said it may not, or has made `max_bounces` bounces. Its rays are
 /// added to `count`.
 fn trace_photon(
     query: &SceneQuery,
-    mut ray: Ray,
-    mut power: Vec3,
+    emitted: Emitted,
     max_bounces: u32,
     rng: &mut Rng,
     count: &mut RayCount,
     arrive: &mut dyn FnMut(&Arrival) -> bool,
 ) {
+    let Emitted { mut ray, mut power, from_delta_light } = emitted;
     let (mut diffuse_bounces, mut specular_bounces) = (0u32, 0u32);
     for _ in 0..max_bounces {
         // The front of an area light absorbs photons, as camera paths see it.
@@ -510,8 +522,13 @@ fn trace_photon(
                 normal: sp.ns,
                 indirect: diffuse_bounces > 0,
             };
-            may_scatter_diffusely =
-                arrive(&Arrival { photon, surface: &sp, diffuse_bounces, specular_bounces });
+            may_scatter_diffusely = arrive(&Arrival {
+                photon,
+                surface: &sp,
+                diffuse_bounces,
+                specular_bounces,
+                from_delta_light,
+            });
             // A caustic photon on a surface of mirror or glass and diffuse
             // parts (an MTL `illum 3` paint, frosted glass) goes on through
             // the first; ending it here lost that part's whole caustic.
