@@ -1062,8 +1062,9 @@ fn visible_point(
     let mut scale = RadianceScale::ONE;
     let seen = &mut state.seen;
     let mut found_surface = false; // the first diffuse or glossy one, for albedo and normal
-                                   // How the path counts a light's front it meets, and which component
-                                   // light found along it goes to.
+
+    // How the path counts a light's front it meets, and which component
+    // light found along it goes to.
     let mut lights = LightsMet::Whole;
     let mut class = PathClass::Specular;
     let samples = config.light_samples_or(LIGHT_SAMPLES);
@@ -1176,10 +1177,7 @@ struct Choice {
 impl Choice {
     fn at(bsdf: &Bsdf) -> Choice {
         let smooth = if bsdf.has_specular() { bsdf.smooth_probability() } else { 1.0 };
-        let lobe = match lobe_followed(bsdf.material()) {
-            true => smooth * bsdf.glossy_share(),
-            false => 0.0,
-        };
+        let lobe = if lobe_followed(bsdf.material()) { smooth * bsdf.glossy_share() } else { 0.0 };
         Choice { stop: smooth - lobe, lobe }
     }
 }
@@ -1190,11 +1188,12 @@ impl Choice {
 /// as diffuse surfaces do. A visible point's photons come from all
 /// directions, and a sharp lobe weighs a few of them by its peak: a shiny
 /// sphere (exponent 3000) under an area light was a speckle of photons
-/// (RMSE 0.21-0.24 over it at 6 s, 0.016-0.020 following the lobe).
-/// Measured on that sphere, RMSE at 6 s over four seeds: at exponent 2
-/// gathering 0.0086, following 0.0127; at 5, 0.0105 and 0.0136; at 10,
-/// 0.0123 and 0.0130; at 20, 0.0162 and 0.0149; at 60, 0.025 and 0.017
-/// (BENCHMARKS.md, "SPPM follows sharp glossy lobes").
+/// (RMSE 0.23-0.25 over it at 6 s, 0.012-0.015 following the lobe).
+/// Measured on such a sphere, RMSE at 6 s over four seeds, gathering
+/// against following (with a tenth of the lobe's chance still stopping,
+/// a first version): at exponent 2 0.0086 and 0.0127; at 5, 0.0105 and
+/// 0.0136; at 10, 0.0123 and 0.0130; at 20, 0.0162 and 0.0149; at 60,
+/// 0.025 and 0.017 (BENCHMARKS.md, "SPPM follows sharp glossy lobes").
 const FOLLOWED_ABOVE_EXPONENT: f32 = 10.0;
 
 /// Whether camera paths follow a material's glossy lobe
