@@ -289,10 +289,11 @@ impl<'l> LightSamples<'l> {
         Self::expected_count(lights, light, p, LightSampling::MultipleImportance)
     }
 
-    /// The density of `samples` stratified shadow rays a light at `from`
-    /// towards the point `on` of `light` (one of `lights`): the number of
-    /// samples it takes there ([`LightSamples::expected_count`]) times
-    /// each one's density. The shadow rays' side of the balance heuristic
+    /// The density with which a point at `from`, taking `samples`
+    /// stratified shadow rays per area light, sends one towards the point
+    /// `on` of `light` (one of `lights`): the samples the light takes there
+    /// ([`LightSamples::expected_count`]) times each one's density. The
+    /// shadow rays' side of the balance heuristic that
     /// [`direct_light_against`] weighs a lobe's rays against.
     pub fn stratified_density(lights: &Lights, light: &Light, samples: u32, from: Vec3, on: Vec3) -> f32 {
         let sampling = LightSampling::Stratified { samples };
