@@ -67,8 +67,7 @@ fn means(scene: &Scene, integrator: Integrator, samples: u32) -> (f32, f32) {
     let image = render(scene, accel.as_ref(), &config, &|_| {}).unwrap().film.beauty();
     let value = |i: usize| image.pixels[i].element_sum() / 3.0;
     let all = (0..144).map(value).sum::<f32>() / 144.0;
-    let middle = (0..144).filter(|i| (3..9).contains(&(i / 12)) && (3..9).contains(&(i % 12)));
-    (all, middle.map(value).sum::<f32>() / 36.0)
+    (all, common::middle_of_12x12().map(value).sum::<f32>() / 36.0)
 }
 
 /// Measured (the image and its middle): path 0.999 / 1.000, bdpt 1.001 /

@@ -221,8 +221,7 @@ fn shiny_glass_in_a_box_of_lights() -> Scene {
 /// the whole image's largest pixel.
 fn middle_components(rendered: &Rendered) -> ([f32; 4], f32) {
     let film = &rendered.film;
-    let middle: Vec<usize> =
-        (0..144).filter(|i| (3..9).contains(&(i / 12)) && (3..9).contains(&(i % 12))).collect();
+    let middle: Vec<usize> = common::middle_of_12x12().collect();
     let mean = |part: &dyn Fn(&caustix::film::Sample) -> glam::Vec3| {
         middle.iter().map(|&i| part(&film.pixels[i]).element_sum() / 3.0).sum::<f32>() / middle.len() as f32
     };

@@ -118,10 +118,7 @@ fn a_smooth_sphere_of_few_triangles_agrees_with_the_path_tracer() {
         common::box_of_lights()
     );
     let scene = Scene::from_toml(&text, std::path::Path::new("few.toml")).unwrap();
-    let middle = |image: &Image| {
-        let inside = |i: usize| (3..9).contains(&(i / 12)) && (3..9).contains(&(i % 12));
-        image.pixels.iter().enumerate().filter(|(i, _)| inside(*i)).map(|(_, p)| p.x).sum::<f32>() / 36.0
-    };
+    let middle = |image: &Image| common::middle_of_12x12().map(|i| image.pixels[i].x).sum::<f32>() / 36.0;
     let reference = render_with(&scene, Integrator::Path, 1024, 12).film.beauty();
     let (reference_middle, reference_mean) = (middle(&reference), mean(&reference));
     // The light tracer is the noisiest: more samples, and room for its noise.

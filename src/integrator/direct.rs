@@ -300,6 +300,15 @@ impl<'l> LightSamples<'l> {
         Self::expected_count(lights, light, from, sampling) * light.pdf_solid_angle(on, from)
     }
 
+    /// The share, by the balance heuristic, of a light's front at `on`
+    /// that a lobe's ray from `from` keeps, drawn with density `pdf`; the
+    /// rest is the `samples` shadow rays' ([`LightSamples::stratified_density`]).
+    /// An infinite shadow-ray density (a light seen edge on) leaves the
+    /// lobe no share.
+    pub fn lobe_share(lights: &Lights, light: &Light, samples: u32, from: Vec3, on: Vec3, pdf: f32) -> f32 {
+        1.0 / (1.0 + Self::stratified_density(lights, light, samples, from, on) / pdf)
+    }
+
     /// How many samples `light` (one of `lights`) takes at `p` under
     /// `sampling`, or is expected to where the point draws among the
     /// lights: what its [`Light::pdf_solid_angle`] is multiplied by for

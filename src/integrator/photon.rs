@@ -562,10 +562,14 @@ impl MapLight<'_> {
         match lights {
             LightsSeen::Not => 0.0,
             LightsSeen::Whole => 1.0,
-            LightsSeen::Shared { from, pdf } => {
-                // (An infinite density, at a light seen edge on: no share.)
-                1.0 / (1.0 + self.shadow_ray_density(light, from, ray.at(t)) / pdf)
-            }
+            LightsSeen::Shared { from, pdf } => LightSamples::lobe_share(
+                &self.query.scene.lights,
+                light,
+                self.light_samples,
+                from,
+                ray.at(t),
+                pdf,
+            ),
         }
     }
 

@@ -96,3 +96,9 @@ pub fn in_scene(scene: &caustix::scene::Scene, file_point: glam::Vec3) -> glam::
 pub fn in_file(scene: &caustix::scene::Scene, point: glam::Vec3) -> glam::Vec3 {
     scene.in_file(point)
 }
+
+/// The indices of the middle 6 x 6 pixels of a 12 x 12 image, row by row:
+/// where the tests' furnace spheres fill the view.
+pub fn middle_of_12x12() -> impl Iterator<Item = usize> {
+    (0..144).filter(|i| (3..9).contains(&(i / 12)) && (3..9).contains(&(i % 12)))
+}

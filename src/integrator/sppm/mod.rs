@@ -1075,15 +1075,14 @@ fn visible_point(
                 *class.slot(seen) += match lights {
                     LightsMet::Whole => met,
                     LightsMet::Shared { from, pdf } => {
-                        let shadow = LightSamples::stratified_density(
+                        met * LightSamples::lobe_share(
                             &ctx.scene().lights,
                             light,
                             samples,
                             from,
                             ray.at(t),
-                        );
-                        // (An infinite density, a light seen edge on: no share.)
-                        met / (1.0 + shadow / pdf)
+                            pdf,
+                        )
                     }
                 };
                 return None;
