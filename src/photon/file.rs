@@ -12,7 +12,8 @@
 //! stats: u64 global emitted, u64 caustic emitted, f64 trace s, f64 build s,
 //!   u64 notes, each u32 length + UTF-8
 //! global map, caustic map: u8 present; u64 photons, each 12 f32 (position,
-//!   incoming, power, normal) and u8 indirect; u8 precomputed; u64 records,
+//!   incoming, power, normal), u8 indirect and u8 from a point or spot
+//!   light; u8 precomputed; u64 records,
 //!   each 10 f32 (position, normal, irradiance, squared radius), u8 guided
 //!   and, if guided, the gather guide's cell probabilities (guide::CELLS f32)
 //! u64 checksum of everything before it (hash::checksum)
@@ -36,7 +37,7 @@ use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
 const MAGIC: &[u8; 4] = b"CXPM";
-const VERSION: u32 = 4;
+const VERSION: u32 = 5;
 
 /// What a scene's photon maps depend on besides the scene: two maps are
 /// interchangeable when these and the scene's fingerprint agree.
@@ -224,6 +225,7 @@ impl Writer {
                 self.vec3(v);
             }
             self.0.push(u8::from(p.indirect));
+            self.0.push(u8::from(p.from_delta_light));
         }
         match map.precomputed_records() {
             None => self.0.push(0),
@@ -349,7 +351,7 @@ impl Reader<'_> {
         if self.u8()? == 0 {
             return Ok(None);
         }
-        let n = self.count(49)?;
+        let n = self.count(50)?;
         let mut photons = Vec::with_capacity(n);
         for _ in 0..n {
             photons.push(Photon {
@@ -358,6 +360,7 @@ impl Reader<'_> {
                 power: self.vec3()?,
                 normal: self.vec3()?,
                 indirect: self.u8()? != 0,
+                from_delta_light: self.u8()? != 0,
             });
         }
         let precomputed = match self.u8()? {

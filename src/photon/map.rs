@@ -40,6 +40,9 @@ pub struct Photon {
     /// through mirrors and glass only, which shadow rays and the caustic map
     /// hold).
     pub indirect: bool,
+    /// Whether it left a point or spot light, which no ray can meet (else
+    /// an area light's front, which rays from the camera may meet).
+    pub from_delta_light: bool,
 }
 
 impl Photon {
@@ -60,7 +63,14 @@ impl Photon {
     /// A photon of 1 W per channel at `position`, come straight down onto a
     /// surface facing up (for tests of the searches, where only positions matter).
     pub(crate) fn on_floor(position: Vec3) -> Photon {
-        Photon { position, incoming: Vec3::Y, power: Vec3::ONE, normal: Vec3::Y, indirect: false }
+        Photon {
+            position,
+            incoming: Vec3::Y,
+            power: Vec3::ONE,
+            normal: Vec3::Y,
+            indirect: false,
+            from_delta_light: false,
+        }
     }
 
     /// `n` photons [`on_floor`](Photon::on_floor) over the unit square: the
@@ -868,6 +878,7 @@ mod tests {
                     power: Vec3::splat(rng.uniform()),
                     normal,
                     indirect: i % 2 == 0,
+                    from_delta_light: i % 3 == 0,
                 }
             })
             .collect();
@@ -907,6 +918,7 @@ mod tests {
                 power: Vec3::splat(1e-5),
                 normal: Vec3::Y,
                 indirect: false,
+                from_delta_light: false,
             })
             .collect();
         let map = PhotonMap::new(photons);
@@ -959,6 +971,7 @@ mod tests {
                     power: Vec3::splat(1.0 / (200.0 * 200.0)),
                     normal,
                     indirect: true,
+                    from_delta_light: false,
                 })
                 .collect::<Vec<_>>()
         };

@@ -285,9 +285,6 @@ pub struct Arrival<'a> {
     pub diffuse_bounces: u32,
     /// Mirror or glass bounces before this surface.
     pub specular_bounces: u32,
-    /// Whether it left a point or spot light, which no ray can meet (else
-    /// an area light's front, which rays from the camera may meet).
-    pub from_delta_light: bool,
 }
 
 /// Emits `count` photons in total from all lights (shared in proportion to
@@ -521,14 +518,10 @@ fn trace_photon(
                 power,
                 normal: sp.ns,
                 indirect: diffuse_bounces > 0,
-            };
-            may_scatter_diffusely = arrive(&Arrival {
-                photon,
-                surface: &sp,
-                diffuse_bounces,
-                specular_bounces,
                 from_delta_light,
-            });
+            };
+            may_scatter_diffusely =
+                arrive(&Arrival { photon, surface: &sp, diffuse_bounces, specular_bounces });
             // A caustic photon on a surface of mirror or glass and diffuse
             // parts (an MTL `illum 3` paint, frosted glass) goes on through
             // the first; ending it here lost that part's whole caustic.

@@ -650,11 +650,7 @@ impl<'a> Progressive<'a> {
             |landed: &mut Landed, arrival: &Arrival| {
                 if is_gathered(arrival) {
                     let bounces = arrival.diffuse_bounces + arrival.specular_bounces;
-                    landed.photons.push(Landing {
-                        photon: arrival.photon,
-                        bounces,
-                        from_delta_light: arrival.from_delta_light,
-                    });
+                    landed.photons.push(Landing { photon: arrival.photon, bounces });
                     if !arrival.photon.indirect && bounces < max_depth {
                         landed.to_camera.extend(caustic_to_camera(
                             ctx,
@@ -694,7 +690,7 @@ impl<'a> Progressive<'a> {
             let mut caustic_weight = None;
             let mut disc = DiscShare::new(vp.p, vp.n, vp.radius);
             for &i in found {
-                let Landing { photon, bounces, from_delta_light } = &arrived[i as usize];
+                let Landing { photon, bounces } = &arrived[i as usize];
                 if !photon.lights_surface(vp.p, vp.n, vp.radius) {
                     disc.offer(photon.position, photon.normal);
                     continue;
@@ -706,7 +702,7 @@ impl<'a> Progressive<'a> {
                 let f = match vp.gathers {
                     Gathers::Whole => m.brdf(vp.n, photon.incoming, vp.wo),
                     Gathers::Diffuse => m.diffuse * FRAC_1_PI,
-                    Gathers::LobeOfDeltaCaustics if !photon.indirect && *from_delta_light => {
+                    Gathers::LobeOfDeltaCaustics if !photon.indirect && photon.from_delta_light => {
                         m.glossy_brdf(vp.n, photon.incoming, vp.wo)
                     }
                     Gathers::LobeOfDeltaCaustics => continue,
@@ -788,8 +784,6 @@ struct Landing {
     photon: Photon,
     /// Its bounces before it landed.
     bounces: u32,
-    /// Whether it left a point or spot light.
-    from_delta_light: bool,
 }
 
 /// What a chunk of a pass's photons leaves.
@@ -828,7 +822,7 @@ fn caustic_to_camera(
     // front through mirrors and glass themselves: its caustic photons give
     // the diffuse part alone, as visible points gather them.
     let m = ctx.query.material(sp);
-    let f = if lobe_followed(m) && !arrival.from_delta_light {
+    let f = if lobe_followed(m) && !photon.from_delta_light {
         m.diffuse * FRAC_1_PI
     } else {
         m.brdf(sp.ns, photon.incoming, view.to_eye)
