@@ -178,58 +178,10 @@ fn sobol_camera_paths_stratify_each_pixel() {
     assert!(sobol < 0.75 * independent, "sobol {sobol} against independent {independent}");
 }
 
-/// A unit sphere, half glossy reflection of Phong exponent `exponent` and
-/// half clear glass, seen at 12 x 12 from inside `surroundings` (scene-file
-/// tables) with `pass_photons` photons a pass.
-fn shiny_glass(exponent: u32, pass_photons: u32, surroundings: &str) -> Scene {
-    let text = format!(
-        r#"
-        [camera]
-        eye = [0, 0, 1.8]
-        look_at = [0, 0, 0]
-        fov = 70
-        [image]
-        width = 12
-        height = 12
-        [render]
-        max_depth = 32
-        [photons]
-        max_bounces = 32
-        pass_photons = {pass_photons}
-        [materials.shiny]
-        specular = 0.5
-        phong_exponent = {exponent}
-        transmittance = 0.5
-        [[sphere]]
-        center = [0, 0, 0]
-        radius = 1
-        subdivisions = 5
-        material = "shiny"
-        {surroundings}
-    "#
-    );
-    Scene::from_toml(&text, std::path::Path::new("shiny.toml")).unwrap()
-}
-
 /// A sharp lobe (exponent 1000) in the closed box of lights of radiance 1
 /// (`common::box_of_lights`).
 fn shiny_glass_in_a_box_of_lights() -> Scene {
-    shiny_glass(1000, 5000, &common::box_of_lights())
-}
-
-/// Each component's mean over the middle 6 x 6 pixels (all sphere), and
-/// the whole image's largest pixel.
-fn middle_components(rendered: &Rendered) -> ([f32; 4], f32) {
-    let film = &rendered.film;
-    let middle: Vec<usize> = common::middle_of_12x12().collect();
-    let mean = |part: &dyn Fn(&caustix::film::Sample) -> glam::Vec3| {
-        middle.iter().map(|&i| part(&film.pixels[i]).element_sum() / 3.0).sum::<f32>() / middle.len() as f32
-    };
-    let components =
-        [mean(&|s| s.emission), mean(&|s| s.direct), mean(&|s| s.caustic), mean(&|s| s.indirect)];
-    let image = film.beauty();
-    let brightest = image.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max);
-    (components, brightest)
+    common::shiny_glass(1000, 5000, &common::box_of_lights())
 }
 
 /// Camera paths follow a sharp glossy lobe instead of gathering photons
@@ -252,36 +204,7 @@ fn sppm_follows_a_sharp_glossy_lobe_and_agrees_with_the_path_tracer() {
     let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
     let path_config = RenderConfig { integrator: Integrator::Path, samples: 4096, ..scene.config.clone() };
     let path = render(&scene, accel.as_ref(), &path_config, &|_| {}).unwrap();
-    let progressive = sppm(&scene, 256);
-    let (expected, _) = middle_components(&path);
-    let (found, brightest) = middle_components(&progressive);
-    eprintln!("path {expected:?}, sppm {found:?}, brightest {brightest}");
-    for (part, (e, f)) in ["emission", "direct", "caustic", "indirect"].iter().zip(expected.iter().zip(found))
-    {
-        assert!((f - e).abs() < 0.05 * e, "{part}: sppm {f}, path tracer {e}");
-    }
-    let (e, f) = (expected.iter().sum::<f32>(), found.iter().sum::<f32>());
-    assert!((f / e - 1.0).abs() < 0.01, "sppm {f}, path tracer {e}");
-    assert!(brightest < 1.05, "brightest pixel {brightest}");
-}
-
-/// A broader lobe (exponent 20) in a closed box of grey walls under a
-/// point light: much of the light the lobe reflects is the point light's,
-/// focused onto the sphere's inside by its glass, which no camera path can
-/// meet.
-fn shiny_glass_under_a_point_light() -> Scene {
-    let walls = r#"
-        [materials.wall]
-        diffuse = 0.5
-        [[box]]
-        center = [0, 0, 0]
-        size = 4
-        material = "wall"
-        [[point_light]]
-        position = [0.6, 1.5, 1.2]
-        power = 30
-    "#;
-    shiny_glass(20, 20000, walls)
+    common::assert_components_agree(&sppm(&scene, 256), &path, "sppm");
 }
 
 /// Where camera paths follow a glossy lobe, the point light's caustic
@@ -295,12 +218,13 @@ fn shiny_glass_under_a_point_light() -> Scene {
 /// of the lobe's chance, the caustic's error was 3.3 times as large.)
 #[test]
 fn sppm_gathers_a_point_lights_caustic_where_it_follows_a_lobe() {
-    let scene = shiny_glass_under_a_point_light();
+    let scene = common::shiny_glass_under_a_point_light();
     let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
     let vcm_config = RenderConfig { integrator: Integrator::Vcm, samples: 4096, ..scene.config.clone() };
     let vcm = render(&scene, accel.as_ref(), &vcm_config, &|_| {}).unwrap();
     let progressive = sppm(&scene, 256);
-    let ((expected, _), (found, _)) = (middle_components(&vcm), middle_components(&progressive));
+    let ((expected, _), (found, _)) =
+        (common::middle_components(&vcm), common::middle_components(&progressive));
     eprintln!("vcm {expected:?}, sppm {found:?}");
     let (e, f) = (expected.iter().sum::<f32>(), found.iter().sum::<f32>());
     assert!((f / e - 1.0).abs() < 0.02, "sppm {f}, vcm {e}");

@@ -455,41 +455,20 @@ impl PhotonMap {
     /// the whole search disc (`r = max_radius`): shrinking it to the few
     /// photons found would turn each stray photon into a bright speck.
     pub fn radiance(&self, p: Vec3, n: Vec3, wo: Vec3, material: &Material, estimate: &Estimate) -> Vec3 {
-        self.radiance_over(p, n, wo, material, estimate).0
+        self.radiance_by(p, n, estimate, |photon| material.brdf(n, photon.incoming, wo))
     }
 
-    /// [`PhotonMap::radiance`], and the squared radius of the disc it used.
-    fn radiance_over(
-        &self,
-        p: Vec3,
-        n: Vec3,
-        wo: Vec3,
-        material: &Material,
-        estimate: &Estimate,
-    ) -> (Vec3, f32) {
+    /// [`PhotonMap::radiance`] with each photon's BRDF from `brdf`: a
+    /// surface may weigh some photons by a part of its BRDF alone.
+    pub fn radiance_by(&self, p: Vec3, n: Vec3, estimate: &Estimate, brdf: impl Fn(&Photon) -> Vec3) -> Vec3 {
         let (found, r2) = self.disc(p, estimate);
-        (self.radiance_in(&found, r2, p, n, wo, material, estimate), r2)
-    }
-
-    /// [`PhotonMap::radiance`] from the photons of a [`PhotonMap::disc`].
-    #[allow(clippy::too_many_arguments)]
-    fn radiance_in(
-        &self,
-        found: &[(f32, usize)],
-        r2: f32,
-        p: Vec3,
-        n: Vec3,
-        wo: Vec3,
-        material: &Material,
-        estimate: &Estimate,
-    ) -> Vec3 {
         if found.is_empty() || r2 <= 0.0 {
             return Vec3::ZERO;
         }
         let r = r2.sqrt();
         let mut sum = Vec3::ZERO;
         let mut disc = DiscShare::new(p, n, r).with_cone_filter(estimate.cone_filter);
-        for &(d2, i) in found {
+        for &(d2, i) in &found {
             let photon = &self.photons[i];
             if !photon.lights_surface(p, n, r) {
                 disc.offer(photon.position, photon.normal);
@@ -499,7 +478,7 @@ impl PhotonMap {
                 Some(kc) => 1.0 - d2.sqrt() / (kc * r),
                 None => 1.0,
             };
-            sum += weight * material.brdf(n, photon.incoming, wo) * photon.power;
+            sum += weight * brdf(photon) * photon.power;
         }
         // The cone filter's weights integrate to (1 - 2 / (3 k_c)) pi r^2;
         // near a corner, the share of that on this surface.

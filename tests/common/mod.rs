@@ -102,3 +102,86 @@ pub fn in_file(scene: &caustix::scene::Scene, point: glam::Vec3) -> glam::Vec3 {
 pub fn middle_of_12x12() -> impl Iterator<Item = usize> {
     (0..144).filter(|i| (3..9).contains(&(i / 12)) && (3..9).contains(&(i % 12)))
 }
+
+/// A unit sphere, half glossy reflection of Phong exponent `exponent` and
+/// half clear glass, seen at 12 x 12 from inside `surroundings` (scene-file
+/// tables) with `pass_photons` photons a pass.
+pub fn shiny_glass(exponent: u32, pass_photons: u32, surroundings: &str) -> caustix::scene::Scene {
+    let text = format!(
+        r#"
+        [camera]
+        eye = [0, 0, 1.8]
+        look_at = [0, 0, 0]
+        fov = 70
+        [image]
+        width = 12
+        height = 12
+        [render]
+        max_depth = 32
+        [photons]
+        max_bounces = 32
+        pass_photons = {pass_photons}
+        [materials.shiny]
+        specular = 0.5
+        phong_exponent = {exponent}
+        transmittance = 0.5
+        [[sphere]]
+        center = [0, 0, 0]
+        radius = 1
+        subdivisions = 5
+        material = "shiny"
+        {surroundings}
+    "#
+    );
+    caustix::scene::Scene::from_toml(&text, Path::new("shiny.toml")).unwrap()
+}
+
+/// Each component's mean over the middle 6 x 6 pixels (all sphere), and
+/// the whole image's largest pixel.
+pub fn middle_components(rendered: &caustix::Rendered) -> ([f32; 4], f32) {
+    let film = &rendered.film;
+    let middle: Vec<usize> = middle_of_12x12().collect();
+    let mean = |part: &dyn Fn(&caustix::film::Sample) -> glam::Vec3| {
+        middle.iter().map(|&i| part(&film.pixels[i]).element_sum() / 3.0).sum::<f32>() / middle.len() as f32
+    };
+    let components =
+        [mean(&|s| s.emission), mean(&|s| s.direct), mean(&|s| s.caustic), mean(&|s| s.indirect)];
+    let image = film.beauty();
+    let brightest = image.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max);
+    (components, brightest)
+}
+
+/// A broader lobe (exponent 20) in a closed box of grey walls under a
+/// point light: much of the light the lobe reflects is the point light's,
+/// focused onto the sphere's inside by its glass, which no camera path can
+/// meet.
+pub fn shiny_glass_under_a_point_light() -> caustix::scene::Scene {
+    let walls = r#"
+        [materials.wall]
+        diffuse = 0.5
+        [[box]]
+        center = [0, 0, 0]
+        size = 4
+        material = "wall"
+        [[point_light]]
+        position = [0.6, 1.5, 1.2]
+        power = 30
+    "#;
+    shiny_glass(20, 20000, walls)
+}
+
+/// Asserts that `found`, rendered by `who`, agrees with `reference` (the
+/// path tracer's) over the middle of a furnace sphere lit by lights of
+/// radiance 1: every component within 5%, their sum within 1%, and no
+/// pixel of the image above 1.05.
+pub fn assert_components_agree(found: &caustix::Rendered, reference: &caustix::Rendered, who: &str) {
+    let ((expected, _), (found, brightest)) = (middle_components(reference), middle_components(found));
+    eprintln!("path tracer {expected:?}, {who} {found:?}, brightest {brightest}");
+    for (part, (e, f)) in ["emission", "direct", "caustic", "indirect"].iter().zip(expected.iter().zip(found))
+    {
+        assert!((f - e).abs() < 0.05 * e, "{part}: {who} {f}, path tracer {e}");
+    }
+    let (e, f) = (expected.iter().sum::<f32>(), found.iter().sum::<f32>());
+    assert!((f / e - 1.0).abs() < 0.01, "{who} {f}, path tracer {e}");
+    assert!(brightest < 1.05, "{who}: brightest pixel {brightest}");
+}
