@@ -51,8 +51,10 @@ fn mtl_materials_map_onto_ours() {
     assert!((hot.total_reflectance() - Vec3::ONE).abs().max_element() < 1e-6);
     assert!((hot.diffuse.x / hot.specular.x - 1.5).abs() < 1e-6);
     assert_eq!(hot.phong_exponent, 30.0);
-    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    // The water, one triangle of glass, closes no solid: named too.
+    assert_eq!(scene.warnings.len(), 2, "{:?}", scene.warnings);
     assert!(scene.warnings[0].contains("things.obj:hot"));
+    assert!(scene.warnings[1].contains("object `water`: 1 of its 1 glass triangles have an edge"));
 }
 
 /// What an MTL file asks for that is not read (texture maps, emission,
@@ -594,4 +596,33 @@ fn a_hollow_glass_box_in_two_objects_turns_as_one_file() {
         let v = volumes(scene);
         assert!((v[0] - 1.0).abs() < 1e-5 && (v[1] + 0.125).abs() < 1e-5, "{v:?}");
     }
+}
+
+/// A glass mesh with a hole (a cube without its top face) is named in a
+/// warning: glass refracts as a solid's surface, and this one closes none.
+/// The closed cube, and the open one as a matte surface, give no warning.
+#[test]
+fn open_glass_meshes_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let corners = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\n";
+    let sides = "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 1 5 7 3\nf 2 4 8 6\n";
+    write(dir.path(), "closed.obj", &format!("{corners}{sides}f 3 7 8 4\n"));
+    write(dir.path(), "open.obj", &format!("{corners}{sides}"));
+    let warnings = |file: &str, material: &str| {
+        let text = format!(
+            "[camera]\neye = [2.5, 2.2, 3.0]\nlook_at = [0.5, 0.4, 0.5]\n[materials.glass]\ntransmittance = 1.0\n\
+             [materials.matte]\ndiffuse = 0.7\n[[point_light]]\nposition = [3, 5, 2]\npower = 300\n\
+             [[mesh]]\nfile = \"{file}\"\nmaterial = \"{material}\"\n"
+        );
+        Scene::load(&write(dir.path(), "s.toml", &text)).unwrap().warnings
+    };
+    assert!(warnings("closed.obj", "glass").is_empty(), "{:?}", warnings("closed.obj", "glass"));
+    assert!(warnings("open.obj", "matte").is_empty(), "{:?}", warnings("open.obj", "matte"));
+    let open = warnings("open.obj", "glass");
+    assert_eq!(open.len(), 1, "{open:?}");
+    assert!(
+        open[0].contains("open.obj")
+            && open[0].contains("4 of its 10 glass triangles have an edge that no other"),
+        "{open:?}"
+    );
 }

@@ -69,6 +69,9 @@ pub struct Turned {
     /// Triangles left out as copies of another: on the same three places,
     /// in any order.
     pub copies: usize,
+    /// For glass: triangles with an edge that no other triangle shares, or
+    /// that more than two share (the surface is not a solid's).
+    pub open_glass: usize,
 }
 
 impl Turned {
@@ -106,6 +109,15 @@ impl Turned {
         }
         if self.inside_out > 0 {
             out.push(inside_out_warning(name, self.inside_out));
+        }
+        if self.open_glass > 0 {
+            out.push(format!(
+                "{name}: {} of its {triangles} glass triangles have an edge that no other triangle shares (or that \
+                 more than two share): glass refracts as the surface of a solid, and an open surface closes none, so \
+                 a ray bent into it through the surface is not bent back where the surface is missing; close the \
+                 mesh, or give the open part a material that is not glass",
+                self.open_glass
+            ));
         }
         if self.one_sided > 0 {
             out.push(format!(
@@ -156,7 +168,9 @@ pub fn orient(positions: &[Vec3], indices: &mut Vec<[u32; 3]>, normals: Normals,
             if turned > 0 {
                 indices.iter_mut().filter(|t| turn(t)).for_each(|t| t.swap(1, 2));
             }
-            Turned { against_normals: turned, copies, ..Turned::default() }
+            let (_, open, _) = shared_edges(positions, &position_slots(positions), indices);
+            let open_glass = open.iter().filter(|&&open| open).count();
+            Turned { against_normals: turned, copies, open_glass, ..Turned::default() }
         }
         // (Files repeat a corner where its normal or texture coordinates
         // change, and STL files every corner, yet the triangles meet there.)
@@ -167,8 +181,9 @@ pub fn orient(positions: &[Vec3], indices: &mut Vec<[u32; 3]>, normals: Normals,
 }
 
 /// Each part of `indices` wound as most of its triangles, every triangle
-/// as its neighbours; and, if asked to `measure`, the volume the closed
-/// parts enclose ([`Turned::enclosed`]).
+/// as its neighbours; and, if asked to `measure` (glass), the volume the
+/// closed parts enclose ([`Turned::enclosed`]) and the triangles at an
+/// open edge ([`Turned::open_glass`]).
 fn coherent(positions: &[Vec3], corner: &[u32], indices: &mut Vec<[u32; 3]>, measure: bool) -> Turned {
     // (A triangle's index and a bit share a `u32` below.)
     if indices.len() >= 1 << 31 {
@@ -186,6 +201,8 @@ fn coherent(positions: &[Vec3], corner: &[u32], indices: &mut Vec<[u32; 3]>, mea
         (shared, open, _) = shared_edges(positions, corner, indices);
     }
     let n = indices.len();
+    // (Measured for glass, which `measure` is.)
+    let open_glass = if measure { open.iter().filter(|&&open| open).count() } else { 0 };
     // A file that winds one way, as most do, is done here, unless its
     // closed parts must be measured.
     if !measure && shared.iter().all(|&(_, _, same)| !same) {
@@ -210,7 +227,7 @@ fn coherent(positions: &[Vec3], corner: &[u32], indices: &mut Vec<[u32; 3]>, mea
     }
     drop(shared);
 
-    let mut turned = Turned { copies, ..Turned::default() };
+    let mut turned = Turned { copies, open_glass, ..Turned::default() };
     let mut turn = vec![false; n];
     let mut part_of = vec![u32::MAX; n];
     let mut part = Vec::new();
@@ -403,6 +420,31 @@ mod tests {
         [t[0], t[2], t[1]]
     }
 
+    /// Glass is checked for edges that two triangles do not share, however
+    /// its normals come: a closed cube has none; without one triangle,
+    /// the three beside the gap have one each (two on the cube's edges, one
+    /// on the face's diagonal). Surfaces that are not glass are not asked.
+    #[test]
+    fn open_glass_is_counted_and_named() {
+        let (p, closed) = cube();
+        let mut open = closed.clone();
+        open.remove(5);
+        let places = position_slots(&p);
+        let normals: Vec<Vec3> = p.iter().map(|&q| q - Vec3::splat(0.5)).collect();
+        let ways = || [Normals::Smooth(&places), Normals::Flat, Normals::FromFile(&normals)];
+        for (i, normals) in ways().into_iter().enumerate() {
+            assert_eq!(orient(&p, &mut closed.clone(), normals, true).open_glass, 0, "way {i}");
+        }
+        for (i, normals) in ways().into_iter().enumerate() {
+            let done = orient(&p, &mut open.clone(), normals, true);
+            assert_eq!(done.open_glass, 3, "way {i}: {done:?}");
+            assert!(done.warnings("cup.obj", open.len()).iter().any(|w| w.starts_with(
+                "cup.obj: 3 of its 11 glass triangles have an edge that no other triangle shares"
+            )));
+        }
+        assert_eq!(orient(&p, &mut open.clone(), Normals::Smooth(&places), false).open_glass, 0);
+    }
+
     /// A cube whose faces come twice (the copy wound the other way, a
     /// corner of its own at the same place, as two-sided exports write
     /// them), once more in another corner order, with a triangle of no
@@ -560,9 +602,11 @@ mod tests {
             t.iter().enumerate().map(|(i, &t)| if i % 7 == 3 { turned(t) } else { t }).collect();
         for glass in [false, true] {
             let mut m = mixed.clone();
+            // (The 14 at the grid's rim are open; only glass asks.)
+            let open_glass = if glass { 14 } else { 0 };
             assert_eq!(
                 orient(&p, &mut m, Normals::Smooth(&position_slots(&p)), glass),
-                Turned { against_neighbours: 5, ..Turned::default() }
+                Turned { against_neighbours: 5, open_glass, ..Turned::default() }
             );
             assert_eq!(m, t);
         }
@@ -587,7 +631,9 @@ mod tests {
         let mut fin: Vec<[u32; 3]> = t.iter().map(|&t| turned(t)).collect();
         fin.push([0, 1, 8]);
         let before = fin.clone();
-        assert_eq!(orient(&p, &mut fin, Normals::Smooth(&position_slots(&p)), true), Turned::default());
+        // (The fin and the two triangles on its edge, of three, are open.)
+        let open = Turned { open_glass: 3, ..Turned::default() };
+        assert_eq!(orient(&p, &mut fin, Normals::Smooth(&position_slots(&p)), true), open);
         assert_eq!(fin, before);
     }
 
@@ -613,7 +659,7 @@ mod tests {
         let mut m = t.clone();
         assert_eq!(
             orient(&p, &mut m, Normals::Smooth(&position_slots(&p)), true),
-            Turned { one_sided: 24, ..Turned::default() }
+            Turned { one_sided: 24, open_glass: 24, ..Turned::default() }
         );
         assert_eq!(m, t);
     }
@@ -642,15 +688,19 @@ mod tests {
             enclosed: -1.0,
             inside_out: 4,
             copies: 3,
+            open_glass: 6,
         };
         let w = all.warnings("m.obj", 9);
-        assert_eq!(w.len(), 5);
+        assert_eq!(w.len(), 6);
         assert!(w[0].starts_with("m.obj: 3 triangles lie on the same three corners as another"));
         assert!(w[1].starts_with("m.obj: 1 of its 9 triangles wind against the file's vertex normals"));
         assert!(w[2].starts_with("m.obj: 2 of its 9 triangles wind against their neighbours"));
         assert!(w[3].starts_with("m.obj: its closed glass parts enclose a negative volume"), "{}", w[3]);
         assert!(w[3].contains("all 4 of its glass triangles were turned"));
-        assert!(w[4].starts_with("m.obj: 5 triangles form one-sided surfaces"));
+        assert!(
+            w[4].starts_with("m.obj: 6 of its 9 glass triangles have an edge that no other triangle shares")
+        );
+        assert!(w[5].starts_with("m.obj: 5 triangles form one-sided surfaces"));
         assert!(Turned { enclosed: 6.0, ..Turned::default() }.warnings("m.obj", 9).is_empty());
     }
 }
