@@ -591,8 +591,9 @@ impl MapLight<'_> {
     /// along its lobe, which neither its shadow rays (stopped by the
     /// mirrors and glass that focus it) nor the ray going on along the lobe
     /// (which meets no such light) find. Without it a half-glass, half-glossy
-    /// sphere in a grey box under a point light lost 4% of its indirect
-    /// light, and the floor beside it up to 21% (BENCHMARKS.md).
+    /// sphere in a grey box under a point light lost 3.7% of its indirect
+    /// light; with glass of index 1.0001, a patch of the floor beside it
+    /// 21% (BENCHMARKS.md, "Photon mapping on shiny surfaces").
     fn lobe_of_delta_caustics(&self, sp: &SurfacePoint, bsdf: &Bsdf) -> Vec3 {
         match &self.maps.caustic {
             Some(caustic) if self.delta_lights => {
