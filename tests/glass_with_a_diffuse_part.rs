@@ -16,8 +16,6 @@
 
 mod common;
 
-use std::path::Path;
-
 use caustix::accel::Backend;
 use caustix::config::IntegratorKind as Integrator;
 use caustix::scene::Scene;
@@ -29,34 +27,8 @@ use caustix::{render, RenderConfig};
 /// internal reflection, and none is absorbed (at depth 32 the image lost
 /// 0.4% to the cut, at 16 3-4%).
 fn furnace() -> Scene {
-    let lights = common::box_of_lights();
-    let text = format!(
-        r#"
-        [camera]
-        eye = [0, 0, 1.8]
-        look_at = [0, 0, 0]
-        fov = 70
-        [image]
-        width = 12
-        height = 12
-        [render]
-        max_depth = 48
-        [photons]
-        max_bounces = 48
-        pass_photons = 20000
-        [materials.frosted]
-        diffuse = 0.5
-        transmittance = 0.5
-        ior = 1.5
-        [[sphere]]
-        center = [0, 0, 0]
-        radius = 1
-        subdivisions = 5
-        material = "frosted"
-        {lights}
-    "#
-    );
-    Scene::from_toml(&text, Path::new("furnace.toml")).unwrap()
+    let frosted = "diffuse = 0.5\ntransmittance = 0.5\nior = 1.5";
+    common::sphere_seen_close(frosted, 48, 20000, &common::box_of_lights())
 }
 
 /// The mean of the image, and of its middle 6 x 6 pixels (all sphere).

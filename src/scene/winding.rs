@@ -153,11 +153,9 @@ pub fn turn_inside_out(indices: &mut [[u32; 3]]) -> usize {
 pub fn orient(positions: &[Vec3], indices: &mut Vec<[u32; 3]>, normals: Normals, glass: bool) -> Turned {
     match (normals, glass) {
         (Normals::FromFile(normals), true) => {
-            let copies = if may_repeat(positions, indices) {
-                drop_copies(&position_slots(positions), indices)
-            } else {
-                0
-            };
+            // (The places serve the copies, where there may be any, and the open edges.)
+            let places = position_slots(positions);
+            let copies = if may_repeat(positions, indices) { drop_copies(&places, indices) } else { 0 };
             let turn = |t: &[u32; 3]| {
                 let [p0, p1, p2] = t.map(|i| positions[i as usize].as_dvec3());
                 let face = (p1 - p0).cross(p2 - p0);
@@ -168,7 +166,7 @@ pub fn orient(positions: &[Vec3], indices: &mut Vec<[u32; 3]>, normals: Normals,
             if turned > 0 {
                 indices.iter_mut().filter(|t| turn(t)).for_each(|t| t.swap(1, 2));
             }
-            let (_, open, _) = shared_edges(positions, &position_slots(positions), indices);
+            let (_, open, _) = shared_edges(positions, &places, indices);
             let open_glass = open.iter().filter(|&&open| open).count();
             Turned { against_normals: turned, copies, open_glass, ..Turned::default() }
         }

@@ -103,10 +103,16 @@ pub fn middle_of_12x12() -> impl Iterator<Item = usize> {
     (0..144).filter(|i| (3..9).contains(&(i / 12)) && (3..9).contains(&(i % 12)))
 }
 
-/// A unit sphere, half glossy reflection of Phong exponent `exponent` and
-/// half clear glass, seen at 12 x 12 from inside `surroundings` (scene-file
-/// tables) with `pass_photons` photons a pass.
-pub fn shiny_glass(exponent: u32, pass_photons: u32, surroundings: &str) -> caustix::scene::Scene {
+/// A unit sphere of the material `material` (the lines of its TOML table),
+/// filling the middle of a 12 x 12 view from 1.8 away, inside
+/// `surroundings` (scene-file tables); paths and photons of up to `depth`
+/// bounces, `pass_photons` photons a pass.
+pub fn sphere_seen_close(
+    material: &str,
+    depth: u32,
+    pass_photons: u32,
+    surroundings: &str,
+) -> caustix::scene::Scene {
     let text = format!(
         r#"
         [camera]
@@ -117,23 +123,29 @@ pub fn shiny_glass(exponent: u32, pass_photons: u32, surroundings: &str) -> caus
         width = 12
         height = 12
         [render]
-        max_depth = 32
+        max_depth = {depth}
         [photons]
-        max_bounces = 32
+        max_bounces = {depth}
         pass_photons = {pass_photons}
-        [materials.shiny]
-        specular = 0.5
-        phong_exponent = {exponent}
-        transmittance = 0.5
+        [materials.sphere]
+        {material}
         [[sphere]]
         center = [0, 0, 0]
         radius = 1
         subdivisions = 5
-        material = "shiny"
+        material = "sphere"
         {surroundings}
     "#
     );
-    caustix::scene::Scene::from_toml(&text, Path::new("shiny.toml")).unwrap()
+    caustix::scene::Scene::from_toml(&text, Path::new("sphere.toml")).unwrap()
+}
+
+/// A unit sphere, half glossy reflection of Phong exponent `exponent` and
+/// half clear glass, seen at 12 x 12 from inside `surroundings` (scene-file
+/// tables) with `pass_photons` photons a pass ([`sphere_seen_close`]).
+pub fn shiny_glass(exponent: u32, pass_photons: u32, surroundings: &str) -> caustix::scene::Scene {
+    let material = format!("specular = 0.5\nphong_exponent = {exponent}\ntransmittance = 0.5");
+    sphere_seen_close(&material, 32, pass_photons, surroundings)
 }
 
 /// Each component's mean over the middle 6 x 6 pixels (all sphere), and
