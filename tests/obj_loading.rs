@@ -625,4 +625,28 @@ fn open_glass_meshes_are_named() {
             && open[0].contains("4 of its 10 glass triangles have an edge that no other"),
         "{open:?}"
     );
+
+    // A glass box with a metal lid: `usemtl` splits the object into two
+    // meshes, and the lid closes the glass. Without the lid, or with the
+    // lid as a second object, the count is the file's.
+    write(dir.path(), "box.mtl", "newmtl glass\nillum 7\nNi 1.5\nnewmtl metal\nKd 0.5 0.5 0.5\n");
+    let file_materials = |file: &str| {
+        let text = format!(
+            "[camera]\neye = [2.5, 2.2, 3.0]\nlook_at = [0.5, 0.4, 0.5]\n[[point_light]]\nposition = [3, 5, 2]\n\
+             power = 300\n[[mesh]]\nfile = \"{file}\"\n"
+        );
+        Scene::load(&write(dir.path(), "s.toml", &text)).unwrap().warnings
+    };
+    let glass = format!("mtllib box.mtl\n{corners}usemtl glass\n{sides}");
+    let lid = "usemtl metal\nf 3 7 8 4\n";
+    write(dir.path(), "lidded.obj", &format!("o box\n{glass}{lid}"));
+    assert!(file_materials("lidded.obj").is_empty(), "{:?}", file_materials("lidded.obj"));
+    write(dir.path(), "lid_apart.obj", &format!("o box\n{glass}o lid\n{lid}"));
+    assert!(file_materials("lid_apart.obj").is_empty(), "{:?}", file_materials("lid_apart.obj"));
+    // A lid over half the top leaves two glass triangles on the edges of
+    // the other half; the lid is not named (it is not glass).
+    write(dir.path(), "half_lid.obj", &format!("{glass}usemtl metal\nf 3 7 8\n"));
+    let half = file_materials("half_lid.obj");
+    assert_eq!(half.len(), 1, "{half:?}");
+    assert!(half[0].contains("2 of its 10 glass triangles"), "{half:?}");
 }

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat4, DQuat, DVec3, EulerRot, Vec3};
 use toml::Spanned;
 
-use super::mesh::FileNormals;
+use super::mesh::{self, FileNormals};
 use super::obj::MeshMaterials;
 use super::values::Position;
 use super::winding;
@@ -587,12 +587,7 @@ pub(super) fn load_mesh_file(
     // (STL's flat normals come with the file; PLY's are the file's own, or
     // smooth with creases.)
     let mesh = normals.mesh(name.clone(), positions, indices, material);
-    if mesh.indices.len() < faces {
-        warnings.push(format!(
-            "{name}: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",
-            faces - mesh.indices.len()
-        ));
-    }
+    warnings.extend(mesh::no_area_warning(&name, faces, mesh.indices.len()));
     let defaulted = if defaulted { vec![mesh.name.clone()] } else { Vec::new() };
     Ok(obj::ObjContents { meshes: vec![mesh], materials: Vec::new(), warnings, defaulted })
 }

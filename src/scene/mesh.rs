@@ -72,6 +72,18 @@ impl FileNormals {
     }
 }
 
+/// The warning for the mesh of a file (`who`, as warnings name it) that
+/// kept `kept` of its `faces` triangles: those of no area are left out
+/// ([`Mesh::new`]).
+pub(super) fn no_area_warning(who: &str, faces: usize, kept: usize) -> Option<String> {
+    (kept < faces).then(|| {
+        format!(
+            "{who}: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",
+            faces - kept
+        )
+    })
+}
+
 /// Meshes of up to this many triangles keep each triangle's normal rather
 /// than working it out (in `f64`) at every hit: 4-5% of a render's time on
 /// the teapot and the Cornell box (BENCHMARKS.md, issue 17). It costs 12

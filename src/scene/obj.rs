@@ -7,7 +7,7 @@ use std::str::SplitWhitespace;
 
 use glam::Vec3;
 
-use super::mesh::{FileNormals, Mesh};
+use super::mesh::{self, FileNormals, Mesh};
 use super::polygon::{self, Concave};
 use super::winding;
 use crate::error::{Error, Location, Result};
@@ -132,6 +132,7 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         normals: FileNormals,
         material: usize,
         glass: bool,
+        turned: winding::Turned,
     }
     let mut objects = Vec::with_capacity(models.len());
     let mut enclosed = 0.0;
@@ -179,9 +180,29 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         let mut indices = indices;
         let normals = FileNormals::of(normals, &positions);
         let turned = winding::orient(&positions, &mut indices, normals.for_winding(), glass);
-        warnings.extend(turned.warnings(&format!("{file_name}: object `{}`", model.name), indices.len()));
         enclosed += turned.enclosed;
-        objects.push(Object { model: model.name, name, positions, indices, normals, material, glass });
+        objects.push(Object {
+            model: model.name,
+            name,
+            positions,
+            indices,
+            normals,
+            material,
+            glass,
+            turned,
+        });
+    }
+    // Glass open within its object may be closed by another (`winding::open_in_file`).
+    if objects.len() > 1 && objects.iter().any(|o| o.turned.open_glass > 0) {
+        let meshes: Vec<_> = objects.iter().map(|o| (&o.positions[..], &o.indices[..])).collect();
+        let open = winding::open_in_file(&meshes)
+            .unwrap_or_else(|| objects.iter().map(|o| o.turned.open_glass).collect());
+        for (object, open) in objects.iter_mut().zip(open) {
+            object.turned.open_glass = if object.glass { open } else { 0 };
+        }
+    }
+    for o in &objects {
+        warnings.extend(o.turned.warnings(&format!("{file_name}: object `{}`", o.model), o.indices.len()));
     }
     // Which way the glass winds is the whole file's to say (`winding`): a
     // hollow ball may be two objects.
@@ -194,12 +215,8 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
     for Object { model, name, positions, indices, normals, material, .. } in objects {
         let faces = indices.len();
         let mesh = normals.mesh(name, positions, indices, material);
-        if mesh.indices.len() < faces {
-            warnings.push(format!(
-                "{file_name}: object `{model}`: {} of its {faces} triangles have no area (repeated or collinear vertices) and were left out",
-                faces - mesh.indices.len()
-            ));
-        }
+        let who = format!("{file_name}: object `{model}`");
+        warnings.extend(mesh::no_area_warning(&who, faces, mesh.indices.len()));
         meshes.push(mesh);
     }
     warnings.extend(concave.warning().map(|w| format!("{file_name}: {w}")));

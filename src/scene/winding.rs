@@ -178,6 +178,38 @@ pub fn orient(positions: &[Vec3], indices: &mut Vec<[u32; 3]>, normals: Normals,
     }
 }
 
+/// For a file of several meshes (`meshes`, each its positions and
+/// triangles), how many triangles of each have an edge that no other
+/// triangle of the whole file shares, or that more than two share: as
+/// [`Turned::open_glass`] counts them within one mesh, but a mesh closed by
+/// another is not open. An OBJ object whose faces change material is read
+/// as one mesh per material, so a glass bottle with a metal cap is a glass
+/// mesh open at its rim and a cap that closes it: a ray bent into the glass
+/// meets the cap from inside, as it would the real bottle's.
+/// `None` for a file of 2^31 triangles or more, which
+/// `shared_edges` cannot number.
+pub fn open_in_file(meshes: &[(&[Vec3], &[[u32; 3]])]) -> Option<Vec<usize>> {
+    let triangles: usize = meshes.iter().map(|(_, t)| t.len()).sum();
+    if triangles >= 1 << 31 {
+        return None;
+    }
+    let positions: Vec<Vec3> = meshes.iter().flat_map(|&(p, _)| p.iter().copied()).collect();
+    let mut indices = Vec::with_capacity(triangles);
+    let mut first_vertex = 0u32;
+    for &(p, triangles) in meshes {
+        indices.extend(triangles.iter().map(|t| t.map(|i| i + first_vertex)));
+        first_vertex += p.len() as u32;
+    }
+    let (_, open, _) = shared_edges(&positions, &position_slots(&positions), &indices);
+    let mut open = open.into_iter();
+    Some(
+        meshes
+            .iter()
+            .map(|(_, triangles)| open.by_ref().take(triangles.len()).filter(|&o| o).count())
+            .collect(),
+    )
+}
+
 /// Each part of `indices` wound as most of its triangles, every triangle
 /// as its neighbours; and, if asked to `measure` (glass), the volume the
 /// closed parts enclose ([`Turned::enclosed`]) and the triangles at an
