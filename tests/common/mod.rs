@@ -168,18 +168,14 @@ pub fn middle_components(rendered: &caustix::Rendered) -> ([f32; 4], f32) {
 /// focused onto the sphere's inside by its glass, which no camera path can
 /// meet.
 pub fn shiny_glass_under_a_point_light() -> caustix::scene::Scene {
-    let walls = r#"
-        [materials.wall]
-        diffuse = 0.5
-        [[box]]
-        center = [0, 0, 0]
-        size = 4
-        material = "wall"
-        [[point_light]]
-        position = [0.6, 1.5, 1.2]
-        power = 30
-    "#;
-    shiny_glass(20, 20000, walls)
+    let light = "[[point_light]]\nposition = [0.6, 1.5, 1.2]\npower = 30";
+    shiny_glass(20, 20000, &grey_box_lit_by(light))
+}
+
+/// A closed grey box 4 wide (diffuse 0.5) around the origin, lit by
+/// `light` (a scene-file table), as surroundings for [`sphere_seen_close`].
+pub fn grey_box_lit_by(light: &str) -> String {
+    format!("[materials.wall]\ndiffuse = 0.5\n[[box]]\ncenter = [0, 0, 0]\nsize = 4\nmaterial = \"wall\"\n{light}\n")
 }
 
 /// Asserts that `found`, rendered by `who`, agrees with `reference` (the
