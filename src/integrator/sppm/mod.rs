@@ -57,7 +57,7 @@ use rayon::prelude::*;
 use super::direct::{direct_light, direct_light_against, Against, LightSamples, LightSampling};
 use super::path::PathClass;
 use super::rounds::{deviation, luminance, split_by_noise, LAST_ROUND_SHARE};
-use super::to_camera::CameraView;
+use super::to_camera::{adjoint_shading, CameraView};
 use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::{Bsdf, RadianceScale};
 use crate::config::RenderConfig;
@@ -913,20 +913,29 @@ fn caustic_to_camera(
     // lights' give the lobe's part too, which the lobe points gather, each
     // within a radius of its own.
     let m = ctx.query.material(sp);
+    // The camera's density of the point per unit area of the surface, with
+    // the correction light tracing takes where the shading normal is not
+    // the geometric one (`adjoint_shading`, as VCM's light tracer): without
+    // it, a smooth sphere of 20 triangles showed its facets in the caustic
+    // (pixels 0.6-1.5 of bidirectional path tracing's), and a floor whose
+    // normals lean 45 degrees 2.7 times the path tracer's. The weight against
+    // gathering takes the density without it, as the visible point's side
+    // does (`caustic_gathering_weight`).
     let pdf = view.area_pdf(cos);
+    let density = pdf * adjoint_shading(sp, photon.incoming, view.to_eye);
     let visible = radii[view.pixel];
     let light = if lobe_followed(m) && photon.from_delta_light {
         let diffuse = m.diffuse * FRAC_1_PI * to_camera_weight(visible, pdf);
         let lobe = to_camera_weight(lobe_radius.at(sp.p), pdf);
         let glossy = m.glossy_brdf(sp.ns, photon.incoming, view.to_eye) * lobe;
-        photon.power * share * (diffuse + glossy) * pdf
+        photon.power * share * (diffuse + glossy) * density
     } else {
         let f = if lobe_followed(m) {
             m.diffuse * FRAC_1_PI
         } else {
             m.brdf(sp.ns, photon.incoming, view.to_eye)
         };
-        photon.power * share * f * pdf * to_camera_weight(visible, pdf)
+        photon.power * share * f * density * to_camera_weight(visible, pdf)
     };
     if light == Vec3::ZERO || !light.is_finite() || !view.unblocked(ctx, sp, rays) {
         return None;
