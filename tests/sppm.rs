@@ -32,8 +32,13 @@ fn furnace(albedo: f32) -> Scene {
 fn sppm(scene: &Scene, passes: u32) -> Rendered {
     let mut settings = RenderConfig { integrator: Integrator::Sppm, ..scene.config.clone() };
     settings.photons.sppm.passes = passes;
+    render_as(scene, &settings)
+}
+
+/// `scene` rendered by `config` with Embree.
+fn render_as(scene: &Scene, config: &RenderConfig) -> Rendered {
     let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
-    render(scene, accel.as_ref(), &settings, &|_| {}).unwrap()
+    render(scene, accel.as_ref(), config, &|_| {}).unwrap()
 }
 
 /// Measured (alpha 0.8): mean per-pixel error of the indirect light 3.30%,
@@ -201,9 +206,8 @@ fn shiny_glass_in_a_box_of_lights() -> Scene {
 #[test]
 fn sppm_follows_a_sharp_glossy_lobe_and_agrees_with_the_path_tracer() {
     let scene = shiny_glass_in_a_box_of_lights();
-    let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
     let path_config = RenderConfig { integrator: Integrator::Path, samples: 4096, ..scene.config.clone() };
-    let path = render(&scene, accel.as_ref(), &path_config, &|_| {}).unwrap();
+    let path = render_as(&scene, &path_config);
     common::assert_components_agree(&sppm(&scene, 256), &path, "sppm");
 }
 
@@ -215,14 +219,14 @@ fn sppm_follows_a_sharp_glossy_lobe_and_agrees_with_the_path_tracer() {
 /// spp) 0.0093 / 0.0176 / 0.0945, 0.1214; SPPM (256 passes) 0.0091 /
 /// 0.0171 / 0.0960, 0.1222 (with the visible point's radius at every lobe
 /// point, 0.0091 / 0.0164 / 0.0955, 0.1211). Not gathered: the caustic
-/// 0.00002, all 0.1013. (Gathered only where the path stopped at the surface, a tenth
-/// of the lobe's chance, the caustic's error was 3.3 times as large.)
+/// 0.00002, all 0.1013. (Gathered only where the path stopped at the
+/// surface, a tenth of the lobe's chance, the caustic's error was 3.3
+/// times as large.)
 #[test]
 fn sppm_gathers_a_point_lights_caustic_where_it_follows_a_lobe() {
     let scene = common::shiny_glass_under_a_point_light();
-    let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
     let vcm_config = RenderConfig { integrator: Integrator::Vcm, samples: 4096, ..scene.config.clone() };
-    let vcm = render(&scene, accel.as_ref(), &vcm_config, &|_| {}).unwrap();
+    let vcm = render_as(&scene, &vcm_config);
     let progressive = sppm(&scene, 256);
     let ((expected, _), (found, _)) =
         (common::middle_components(&vcm), common::middle_components(&progressive));
@@ -250,10 +254,9 @@ fn sppm_gathers_a_lobe_within_a_radius_of_its_own() {
                 cone_angle = 25\nfalloff_start = 20\npower = 30";
     let coat = "specular = 0.3\nphong_exponent = 1000\ntransmittance = 0.3";
     let scene = common::sphere_seen_close(coat, 32, 20000, &common::grey_box_lit_by(spot));
-    let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
     let mut vcm_config = RenderConfig { integrator: Integrator::Vcm, samples: 1024, ..scene.config.clone() };
     vcm_config.photons.sppm.initial_radius = Some(0.03);
-    let vcm = render(&scene, accel.as_ref(), &vcm_config, &|_| {}).unwrap();
+    let vcm = render_as(&scene, &vcm_config);
     let progressive = sppm(&scene, 64);
     let caustic = |rendered: &Rendered, pixels: &[usize]| {
         let film = &rendered.film;
@@ -316,9 +319,8 @@ fn sppm_caustic_seen_directly_on_leaning_shading_normals_agrees_with_the_path_tr
         power = 30
     "#;
     let scene = Scene::load(&common::write(dir.path(), "leaning.toml", text)).unwrap();
-    let accel = caustix::accel::build(Backend::Embree, &scene.triangle_views()).unwrap();
     let path_config = RenderConfig { integrator: Integrator::Path, samples: 4096, ..scene.config.clone() };
-    let path = render(&scene, accel.as_ref(), &path_config, &|_| {}).unwrap();
+    let path = render_as(&scene, &path_config);
     let progressive = sppm(&scene, 32);
     let ((expected, _), (found, _)) =
         (common::middle_components(&path), common::middle_components(&progressive));

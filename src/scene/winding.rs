@@ -186,8 +186,9 @@ pub fn orient(positions: &[Vec3], indices: &mut Vec<[u32; 3]>, normals: Normals,
 /// as one mesh per material, so a glass bottle with a metal cap is a glass
 /// mesh open at its rim and a cap that closes it: a ray bent into the glass
 /// meets the cap from inside, as it would the real bottle's.
-/// `None` for a file of 2^31 triangles or more, which
-/// `shared_edges` cannot number.
+///
+/// `None` for a file of 2^31 triangles or more, which `shared_edges`
+/// cannot number.
 pub fn open_in_file(meshes: &[(&[Vec3], &[[u32; 3]])]) -> Option<Vec<usize>> {
     let triangles: usize = meshes.iter().map(|(_, t)| t.len()).sum();
     if triangles >= 1 << 31 {
