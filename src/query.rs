@@ -331,10 +331,99 @@ impl SurfacePoint {
         (kr, t)
     }
 
+    /// What light carried from the lights (photons, light subpaths) takes
+    /// past this point beyond the BSDF, where the shading normal is not the
+    /// geometric one (Veach 1997, section 5.3; pbrt's
+    /// `CorrectShadingNormal`): with `from` the unit direction back to where
+    /// the light came from and `to` the one it goes on in,
+    /// `|from.ns| |to.ng| / (|from.ng| |to.ns|)`. A BSDF on shading normals
+    /// is not symmetric, and light carried from the lights runs the other way
+    /// to the camera's: without it, the light tracer showed a smooth sphere
+    /// of few triangles with its facets' pattern (the middle of a furnace's
+    /// sphere of 80 triangles 9% too bright, pixels 0.4 to 1.5 of the path
+    /// tracer's), and bidirectional path tracing its blocks 2% dark. Exactly
+    /// 1 where the normals agree.
+    pub fn adjoint_shading(&self, from: Vec3, to: Vec3) -> f32 {
+        let num = from.dot(self.ns).abs() * to.dot(self.ng).abs();
+        let den = from.dot(self.ng).abs() * to.dot(self.ns).abs();
+        if num == den {
+            1.0
+        } else if den > 0.0 {
+            num / den
+        } else {
+            0.0
+        }
+    }
+
+    /// `|w.ns| / |w.ng|` for a unit direction `w`: how much more of the
+    /// light arriving along `w` the surface takes in by its shading normal
+    /// than the light's density on the surface measures (the path tracer
+    /// weighs it by the shading normal's cosine; a photon's power lands by
+    /// the geometric one's). Exactly 1 where the normals agree; 0 for `w`
+    /// in the surface's plane. [`SurfacePoint::adjoint_shading`] is this
+    /// for `from` over this for `to`.
+    pub fn shading_over_geometric(&self, w: Vec3) -> f32 {
+        let (shading, geometric) = (w.dot(self.ns).abs(), w.dot(self.ng).abs());
+        if shading == geometric {
+            1.0
+        } else if geometric > 0.0 {
+            shading / geometric
+        } else {
+            0.0
+        }
+    }
+
     /// A shadow ray from the surface to `target`, stopping just short of it
     /// (`t` runs from 0 at the surface to 1 at the target).
     pub fn spawn_to(&self, target: Vec3) -> Ray {
         let origin = self.offset_origin(target - self.p);
         Ray { origin, dir: target - origin, t_max: 1.0 - 1e-4 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A point on a floor (geometric normal up) whose shading normal leans
+    /// 45 degrees towards +x.
+    fn on_leaning_floor() -> SurfacePoint {
+        SurfacePoint {
+            p: Vec3::ZERO,
+            ng: Vec3::Y,
+            ns: Vec3::new(1.0, 1.0, 0.0).normalize(),
+            front: true,
+            material: 0,
+            t: 1.0,
+            error: Vec3::ZERO,
+        }
+    }
+
+    /// The cosines' ratio by hand, exactly 1 where the normals agree, and
+    /// Veach's correction as the ratio for the light's way in over the one
+    /// for its way out.
+    #[test]
+    fn shading_normal_corrections_weigh_the_two_cosines() {
+        let sp = on_leaning_floor();
+        let half = std::f32::consts::FRAC_1_SQRT_2;
+        // Straight down onto the floor: the shading normal's cosine is 1/sqrt 2.
+        assert!((sp.shading_over_geometric(Vec3::Y) - half).abs() < 1e-6);
+        // Along the shading normal: 1 over its cosine with the floor's.
+        let along = sp.ns;
+        assert!((sp.shading_over_geometric(along) - 1.0 / half).abs() < 1e-5);
+        // Across the shading normal, on the floor's side: none of it.
+        let across = Vec3::new(-1.0, 1.0, 0.0).normalize();
+        assert!(sp.shading_over_geometric(across).abs() < 1e-6);
+        // In the floor's plane: 0, not infinite.
+        assert_eq!(sp.shading_over_geometric(Vec3::X), 0.0);
+        for (from, to) in [(Vec3::Y, along), (along, Vec3::new(0.3, 0.8, 0.52).normalize())] {
+            let expected = sp.shading_over_geometric(from) / sp.shading_over_geometric(to);
+            assert!((sp.adjoint_shading(from, to) / expected - 1.0).abs() < 1e-5, "{from} {to}");
+        }
+        let flat = SurfacePoint { ns: Vec3::Y, ..sp };
+        for w in [Vec3::Y, along, Vec3::new(0.6, 0.1, -0.3).normalize()] {
+            assert_eq!(flat.shading_over_geometric(w), 1.0);
+            assert_eq!(flat.adjoint_shading(w, Vec3::Y), 1.0);
+        }
     }
 }

@@ -3,7 +3,7 @@
 //! subpaths (VCM's `light` mode and its connections) and SPPM's caustic
 //! photons seen directly both add their light to the film this way, with
 //! the correction light carried from the lights takes on shading normals
-//! ([`adjoint_shading`]).
+//! ([`SurfacePoint::adjoint_shading`]).
 
 use glam::Vec3;
 
@@ -60,29 +60,6 @@ impl CameraView {
     /// unblocked; one shadow ray, counted in `rays`.
     pub fn unblocked(&self, ctx: &Context, sp: &SurfacePoint, rays: &mut RayCount) -> bool {
         !ctx.query.occluded(&sp.spawn_to(ctx.scene().camera.eye), rays)
-    }
-}
-
-/// What light carried by a light subpath takes past a surface whose shading
-/// normal is not its geometric one, beyond the BSDF (Veach 1997, section
-/// 5.3; pbrt's `CorrectShadingNormal`): with `from` the unit direction back
-/// to where the light came from and `to` the one it goes on in,
-/// `|from.ns| |to.ng| / (|from.ng| |to.ns|)`. A BSDF on shading normals is
-/// not symmetric, and light subpaths run the other way to the camera's:
-/// without it, the light tracer showed a smooth sphere of few triangles
-/// with its facets' pattern (the middle of a furnace's sphere of 80
-/// triangles 9% too bright, pixels 0.4 to 1.5 of the path tracer's), and
-/// bidirectional path tracing its blocks 2% dark. Exactly 1 where the
-/// normals agree.
-pub(crate) fn adjoint_shading(sp: &SurfacePoint, from: Vec3, to: Vec3) -> f32 {
-    let num = from.dot(sp.ns).abs() * to.dot(sp.ng).abs();
-    let den = from.dot(sp.ng).abs() * to.dot(sp.ns).abs();
-    if num == den {
-        1.0
-    } else if den > 0.0 {
-        num / den
-    } else {
-        0.0
     }
 }
 

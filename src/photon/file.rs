@@ -11,9 +11,9 @@
 //!   u32 max depth, u8 for gathering, u32 global k, f32 global radius
 //! stats: u64 global emitted, u64 caustic emitted, f64 trace s, f64 build s,
 //!   u64 notes, each u32 length + UTF-8
-//! global map, caustic map: u8 present; u64 photons, each 12 f32 (position,
-//!   incoming, power, normal), u8 indirect and u8 from a point or spot
-//!   light; u8 precomputed; u64 records,
+//! global map, caustic map: u8 present; u64 photons, each 15 f32 (position,
+//!   incoming, power, normal, face normal), u8 indirect and u8 from a point
+//!   or spot light; u8 precomputed; u64 records,
 //!   each 10 f32 (position, normal, irradiance, squared radius), u8 guided
 //!   and, if guided, the gather guide's cell probabilities (guide::CELLS f32)
 //! u64 checksum of everything before it (hash::checksum)
@@ -37,7 +37,7 @@ use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
 const MAGIC: &[u8; 4] = b"CXPM";
-const VERSION: u32 = 5;
+const VERSION: u32 = 6;
 
 /// What a scene's photon maps depend on besides the scene: two maps are
 /// interchangeable when these and the scene's fingerprint agree.
@@ -221,7 +221,7 @@ impl Writer {
         self.0.push(1);
         self.u64(map.photons().len() as u64);
         for p in map.photons() {
-            for v in [p.position, p.incoming, p.power, p.normal] {
+            for v in [p.position, p.incoming, p.power, p.normal, p.face_normal] {
                 self.vec3(v);
             }
             self.0.push(u8::from(p.indirect));
@@ -351,7 +351,7 @@ impl Reader<'_> {
         if self.u8()? == 0 {
             return Ok(None);
         }
-        let n = self.count(50)?;
+        let n = self.count(62)?;
         let mut photons = Vec::with_capacity(n);
         for _ in 0..n {
             photons.push(Photon {
@@ -359,6 +359,7 @@ impl Reader<'_> {
                 incoming: self.vec3()?,
                 power: self.vec3()?,
                 normal: self.vec3()?,
+                face_normal: self.vec3()?,
                 indirect: self.u8()? != 0,
                 from_delta_light: self.u8()? != 0,
             });

@@ -515,8 +515,9 @@ fn trace_photon(
             let photon = Photon {
                 position: sp.p,
                 incoming: -dir,
-                power,
+                power: power * sp.shading_over_geometric(-dir),
                 normal: sp.ns,
+                face_normal: sp.ng,
                 indirect: diffuse_bounces > 0,
                 from_delta_light,
             };
@@ -546,7 +547,11 @@ fn trace_photon(
         } else {
             return;
         }
-        power *= s.weight / q;
+        // Light carried from the lights takes Veach's correction where the
+        // shading normal leans (as VCM's light subpaths): with the stored
+        // power's, the density estimates and the path tracer agree on
+        // smooth meshes of few triangles.
+        power *= s.weight / q * sp.adjoint_shading(-dir, s.wi);
         ray = sp.spawn(s.wi);
     }
 }

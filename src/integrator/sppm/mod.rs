@@ -57,7 +57,7 @@ use rayon::prelude::*;
 use super::direct::{direct_light, direct_light_against, Against, LightSamples, LightSampling};
 use super::path::PathClass;
 use super::rounds::{deviation, luminance, split_by_noise, LAST_ROUND_SHARE};
-use super::to_camera::{adjoint_shading, CameraView};
+use super::to_camera::CameraView;
 use super::{Context, Integrator, Progress, Rendered};
 use crate::bsdf::{Bsdf, RadianceScale};
 use crate::config::RenderConfig;
@@ -915,14 +915,15 @@ fn caustic_to_camera(
     let m = ctx.query.material(sp);
     // The camera's density of the point per unit area of the surface, with
     // the correction light tracing takes where the shading normal is not
-    // the geometric one (`adjoint_shading`, as VCM's light tracer): without
-    // it, a smooth sphere of 20 triangles showed its facets in the caustic
-    // (pixels 0.6-1.5 of bidirectional path tracing's), and a floor whose
-    // normals lean 45 degrees 2.7 times the path tracer's. The weight against
-    // gathering takes the density without it, as the visible point's side
-    // does (`caustic_gathering_weight`).
+    // the geometric one (`SurfacePoint::adjoint_shading`, as VCM's light
+    // tracer; the photon's power holds its first factor, the light's way in):
+    // without it, a smooth sphere of 20 triangles showed its facets in the
+    // caustic (pixels 0.6-1.5 of bidirectional path tracing's), and a floor
+    // whose normals lean 45 degrees 2.7 times the path tracer's. The weight
+    // against gathering takes the density without it, as the visible
+    // point's side does (`caustic_gathering_weight`).
     let pdf = view.area_pdf(cos);
-    let density = pdf * adjoint_shading(sp, photon.incoming, view.to_eye);
+    let density = pdf / sp.shading_over_geometric(view.to_eye);
     let visible = radii[view.pixel];
     let light = if lobe_followed(m) && photon.from_delta_light {
         let diffuse = m.diffuse * FRAC_1_PI * to_camera_weight(visible, pdf);

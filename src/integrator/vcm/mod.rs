@@ -25,8 +25,10 @@
 //! way the path was made). Camera subpaths draw their numbers as the path
 //! tracer does (with Sobol, pass `i` is the pixel's `i`-th point); light
 //! subpaths from independent streams, one per subpath and pass. Light
-//! subpaths scatter with the same BSDF as camera subpaths (no adjoint
-//! correction for shading normals, as in the photon tracer).
+//! subpaths scatter with the same BSDF as camera subpaths, and take Veach's
+//! correction for shading normals where they scatter, join a camera vertex
+//! or the camera, and merge (as the photon tracer's photons do:
+//! [`SurfacePoint::adjoint_shading`]).
 
 mod grid;
 
@@ -36,7 +38,7 @@ use rayon::prelude::*;
 use super::direct::{LightSamples, LightSampling};
 use super::path::PathClass;
 use super::pixels::render_pixels;
-use super::to_camera::{adjoint_shading, CameraView};
+use super::to_camera::CameraView;
 use super::unreached::Unreached;
 use super::{Context, Integrator, Progress, Rendered, SampleRange};
 use crate::accel::Ray;
@@ -497,7 +499,7 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
             return;
         }
         let Some((next, s)) = path.scatter(&bsdf, &sp, pass, rng) else { return };
-        path.throughput *= adjoint_shading(&sp, -dir, s.wi);
+        path.throughput *= sp.adjoint_shading(-dir, s.wi);
         if path.throughput == Vec3::ZERO || !path.throughput.is_finite() {
             return;
         }
@@ -542,7 +544,7 @@ fn connect_to_camera(
     };
     let value = path.throughput
         * f
-        * (weight * camera_area_pdf / pass.light_paths as f32 * adjoint_shading(sp, bsdf.wo(), view.to_eye));
+        * (weight * camera_area_pdf / pass.light_paths as f32 * sp.adjoint_shading(bsdf.wo(), view.to_eye));
     if finite(value) == Vec3::ZERO || !view.unblocked(ctx, sp, rays) {
         return None;
     }
@@ -642,7 +644,7 @@ fn camera_path(
                     // As photon estimates: not the other wall of a corner,
                     // nor the far side of a thin shell.
                     if v.path.length + path.length > pass.max_length
-                        || !lands_near(v.sp.p, v.sp.ns, sp.p, sp.ns, pass.radius)
+                        || !lands_near(v.sp.p, v.sp.ns, v.sp.ng, sp.p, sp.ns, pass.radius)
                     {
                         return;
                     }
@@ -655,8 +657,11 @@ fn camera_path(
                         PathClass::Specular => v.history.component(),
                         _ => Component::Indirect,
                     };
+                    // The light's density weighed by the shading normal's
+                    // cosine, as a photon's stored power is (`Photon::power`).
+                    let landed = v.path.throughput * v.sp.shading_over_geometric(-v.dir);
                     *component.slot(&mut out) +=
-                        finite(merged * lobes.f * v.path.throughput / (w_light + 1.0 + w_camera) as f32);
+                        finite(merged * lobes.f * landed / (w_light + 1.0 + w_camera) as f32);
                 });
             }
         }
@@ -738,7 +743,7 @@ fn connect(
         mis(camera_makes_light) * (pass.vm_weight + v.path.d_vcm + v.path.d_vc * mis(light_side.reverse));
     let w_camera =
         mis(light_makes_camera) * (pass.vm_weight + path.d_vcm + path.d_vc * mis(camera_side.reverse));
-    let light_turns = adjoint_shading(&v.sp, -v.dir, -dir);
+    let light_turns = v.sp.adjoint_shading(-v.dir, -dir);
     let value = camera_side.f
         * light_side.f
         * v.path.throughput
