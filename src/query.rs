@@ -355,6 +355,18 @@ impl SurfacePoint {
         }
     }
 
+    /// Whether light arriving from the unit direction `from` (back towards
+    /// where it came from) is light the smooth (diffuse and glossy) lobes
+    /// here reflect: it must come from the shading normal's side, as the
+    /// path tracer weighs it by that cosine and takes none from below. Camera
+    /// paths ask it of their light samples; light carried from the lights
+    /// (photons, light subpaths), which arrives first, must ask it itself.
+    /// At a floor whose normals lean 80 degrees, the light tracer's image
+    /// of a point light's direct light was 46% too bright without it.
+    pub fn smooth_lobes_take(&self, from: Vec3) -> bool {
+        from.dot(self.ns) > 0.0
+    }
+
     /// `|w.ns| / |w.ng|` for a unit direction `w`: how much more of the
     /// light arriving along `w` the surface takes in by its shading normal
     /// than the light's density on the surface measures (the path tracer

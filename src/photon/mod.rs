@@ -512,10 +512,12 @@ fn trace_photon(
 
         let mut may_scatter_diffusely = true;
         if m.is_glossy_or_diffuse() {
+            // Light from below the shading normal's side lights nothing there.
+            let taken = if sp.smooth_lobes_take(-dir) { sp.shading_over_geometric(-dir) } else { 0.0 };
             let photon = Photon {
                 position: sp.p,
                 incoming: -dir,
-                power: power * sp.shading_over_geometric(-dir),
+                power: power * taken,
                 normal: sp.ns,
                 face_normal: sp.ng,
                 indirect: diffuse_bounces > 0,
@@ -542,7 +544,7 @@ fn trace_photon(
         let Some(s) = bsdf.sample(xi / q, rng) else { return };
         if s.kind.is_specular() {
             specular_bounces += 1;
-        } else if may_scatter_diffusely {
+        } else if may_scatter_diffusely && sp.smooth_lobes_take(-dir) {
             diffuse_bounces += 1;
         } else {
             return;

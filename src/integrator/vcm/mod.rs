@@ -487,7 +487,10 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
             path.d_vcm *= mis(LightSamples::mis_factor(lights, light, sp.p));
         }
         let bsdf = Bsdf::new(query.material(&sp), &sp, dir);
-        if bsdf.has_smooth() {
+        // Light from below the shading normal's side: the smooth lobes
+        // reflect none of it (as the path tracer has it), only mirror and glass.
+        let smooth = bsdf.has_smooth() && sp.smooth_lobes_take(-dir);
+        if smooth {
             if let Some((pixel, value)) = connect_to_camera(ctx, pass, &sp, &bsdf, &path, &mut out.rays) {
                 out.splats.push((pixel, history.component(), value));
             }
@@ -499,6 +502,9 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
             return;
         }
         let Some((next, s)) = path.scatter(&bsdf, &sp, pass, rng) else { return };
+        if !smooth && !s.kind.is_specular() {
+            return;
+        }
         path.throughput *= sp.adjoint_shading(-dir, s.wi);
         if path.throughput == Vec3::ZERO || !path.throughput.is_finite() {
             return;
