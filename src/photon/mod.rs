@@ -541,19 +541,21 @@ fn trace_photon(
         let bsdf = Bsdf::new(m, &sp, dir);
         let xi = rng.uniform();
         let Some(q) = russian_roulette(bsdf.albedo().max_element().min(1.0), xi) else { return };
-        let Some(s) = bsdf.sample(xi / q, rng) else { return };
-        if s.kind.is_specular() {
-            specular_bounces += 1;
-        } else if may_scatter_diffusely && sp.smooth_lobes_take(-dir) {
-            diffuse_bounces += 1;
-        } else {
-            return;
-        }
         // Light carried from the lights takes Veach's correction where the
         // shading normal leans (as VCM's light subpaths): with the stored
         // power's, the density estimates and the path tracer agree on
-        // smooth meshes of few triangles.
-        power *= s.weight / q * sp.adjoint_shading(-dir, s.wi);
+        // smooth meshes of few triangles. The smooth lobes' sample holds it.
+        let Some(s) = bsdf.sample_adjoint(xi / q, rng) else { return };
+        let turn = if s.kind.is_specular() {
+            specular_bounces += 1;
+            sp.adjoint_shading(-dir, s.wi)
+        } else if may_scatter_diffusely {
+            diffuse_bounces += 1;
+            1.0
+        } else {
+            return;
+        };
+        power *= s.weight / q * turn;
         ray = sp.spawn(s.wi);
     }
 }
