@@ -36,7 +36,8 @@ pub struct Photon {
     /// [`SurfacePoint::shading_over_geometric`](crate::query::SurfacePoint::shading_over_geometric)
     /// of `incoming`, so that a density estimate weighs light by the shading
     /// normal's cosine, as the path tracer does (exactly the power where
-    /// the normals agree).
+    /// the normals agree; none where it came from below the shading
+    /// normal's side, which the path tracer takes none of).
     pub power: Vec3,
     /// Unit shading normal of the surface it landed on, on the side it came from.
     pub normal: Vec3,
