@@ -181,11 +181,16 @@ impl<'a> Bsdf<'a> {
     /// Solid-angle density with which [`Bsdf::sample`] produces `wi` through
     /// its smooth lobes, lobe choice included.
     pub fn pdf(&self, wi: Vec3) -> f32 {
-        let n = self.sp.ns;
-        let cos = wi.dot(n);
+        let cos = wi.dot(self.sp.ns);
         if cos <= 0.0 {
             return 0.0;
         }
+        self.mixture_pdf(wi, cos)
+    }
+
+    /// The smooth lobes' density at `wi`, lobe choice included, where the
+    /// diffuse lobe draws by the cosine `cos` (positive) about its axis.
+    fn mixture_pdf(&self, wi: Vec3, cos: f32) -> f32 {
         let [diffuse, glossy, ..] = self.choice;
         let mut pdf = diffuse * cos * FRAC_1_PI;
         if glossy > 0.0 {
@@ -261,10 +266,7 @@ impl<'a> Bsdf<'a> {
             (self.sample_glossy(rng.uniform2()), ScatterKind::Glossy)
         };
         let cos = wi.dot(sp.ng);
-        let mut pdf = diffuse * cos * FRAC_1_PI;
-        if glossy > 0.0 {
-            pdf += glossy * self.glossy_pdf(wi);
-        }
+        let pdf = self.pdf_adjoint(wi);
         if cos <= 0.0 || pdf <= 0.0 {
             return None;
         }
@@ -275,6 +277,22 @@ impl<'a> Bsdf<'a> {
             kind,
             indices: None,
         })
+    }
+
+    /// Solid-angle density with which [`Bsdf::sample_adjoint`] produces `wi`
+    /// through its smooth lobes, lobe choice included.
+    pub fn pdf_adjoint(&self, wi: Vec3) -> f32 {
+        let cos = wi.dot(self.sp.ng);
+        if cos <= 0.0 || !self.sp.smooth_lobes_take(self.wo()) {
+            return 0.0;
+        }
+        self.mixture_pdf(wi, cos)
+    }
+
+    /// [`Bsdf::pdf_adjoint`] the other way round: the density with which
+    /// light arriving back along `wi` would leave towards this viewer.
+    pub fn pdf_adjoint_reverse(&self, wi: Vec3) -> f32 {
+        Bsdf { dir: -wi, ..*self }.pdf_adjoint(self.wo())
     }
 
     /// Picks a lobe with `u_lobe` (uniform in `[0, 1)`) in proportion to its

@@ -25,10 +25,11 @@
 //! way the path was made). Camera subpaths draw their numbers as the path
 //! tracer does (with Sobol, pass `i` is the pixel's `i`-th point); light
 //! subpaths from independent streams, one per subpath and pass. Light
-//! subpaths scatter with the same BSDF as camera subpaths, and take Veach's
-//! correction for shading normals where they scatter, join a camera vertex
-//! or the camera, and merge (as the photon tracer's photons do:
-//! [`SurfacePoint::adjoint_shading`]).
+//! subpaths scatter with the same BSDF as camera subpaths, drawn as the
+//! photon tracer's photons are ([`Bsdf::sample_adjoint`]; `Carries`),
+//! and take Veach's correction for shading normals where they scatter, join
+//! a camera vertex or the camera, and merge
+//! ([`SurfacePoint::adjoint_shading`]).
 
 mod grid;
 
@@ -139,9 +140,13 @@ impl Subpath {
         bsdf: &Bsdf,
         sp: &SurfacePoint,
         pass: &Pass,
+        carries: Carries,
         rng: &mut Rng,
     ) -> Option<(Ray, BsdfSample)> {
-        let s = bsdf.sample(rng.uniform(), rng)?;
+        let s = match carries {
+            Carries::Importance => bsdf.sample(rng.uniform(), rng)?,
+            Carries::Light => bsdf.sample_adjoint(rng.uniform(), rng)?,
+        };
         let survive = continuation(bsdf);
         if rng.uniform() >= survive {
             return None;
@@ -156,7 +161,7 @@ impl Subpath {
             }
             Some(pdf) => {
                 let forward = pdf * survive;
-                let reverse = bsdf.pdf_reverse(s.wi) * survive;
+                let reverse = carries.other().pdf_reverse(bsdf, s.wi) * survive;
                 let g = mis(cos / forward);
                 self.d_vc = g * (self.d_vc * mis(reverse) + self.d_vcm + pass.vm_weight);
                 self.d_vm = g * (self.d_vm * mis(reverse) + self.d_vcm * pass.vc_weight + 1.0);
@@ -184,6 +189,48 @@ fn continuation(bsdf: &Bsdf) -> f32 {
     bsdf.albedo().max_element().clamp(0.0, 1.0)
 }
 
+/// What a subpath carries, which decides how it draws its way on at a
+/// diffuse or glossy vertex: camera subpaths about the shading normal, as
+/// the path tracer; light subpaths over the surface's side by the adjoint
+/// BSDF ([`Bsdf::sample_adjoint`], as photons), since camera paths see
+/// light leave towards directions below the shading normal too. The
+/// weights take each side's own density.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Carries {
+    /// A camera subpath.
+    Importance,
+    /// A light subpath.
+    Light,
+}
+
+impl Carries {
+    /// The other kind of subpath.
+    fn other(self) -> Carries {
+        match self {
+            Carries::Importance => Carries::Light,
+            Carries::Light => Carries::Importance,
+        }
+    }
+
+    /// The density with which a subpath of this kind at the vertex of
+    /// `bsdf` draws `wi`.
+    fn pdf(self, bsdf: &Bsdf, wi: Vec3) -> f32 {
+        match self {
+            Carries::Importance => bsdf.pdf(wi),
+            Carries::Light => bsdf.pdf_adjoint(wi),
+        }
+    }
+
+    /// The density with which a subpath of this kind, arriving back along
+    /// `wi`, would draw the direction towards `bsdf`'s viewer.
+    fn pdf_reverse(self, bsdf: &Bsdf, wi: Vec3) -> f32 {
+        match self {
+            Carries::Importance => bsdf.pdf_reverse(wi),
+            Carries::Light => bsdf.pdf_adjoint_reverse(wi),
+        }
+    }
+}
+
 /// The smooth lobes at a vertex towards a unit direction `wi`.
 struct Lobes {
     f: Vec3,
@@ -196,18 +243,27 @@ struct Lobes {
     reverse: f32,
 }
 
-fn lobes(bsdf: &Bsdf, sp: &SurfacePoint, wi: Vec3) -> Option<Lobes> {
+/// The smooth lobes at a vertex of a subpath that `carries` towards `wi`:
+/// on a camera subpath, light arriving from `wi` must come from the shading
+/// normal's side; on a light subpath, which sends its light on towards
+/// `wi`, only the surface's side is asked of it (a camera path sees light
+/// leave below the shading normal too; see [`connect`] for its shadow ray).
+fn lobes(bsdf: &Bsdf, sp: &SurfacePoint, wi: Vec3, carries: Carries) -> Option<Lobes> {
     let cos = wi.dot(sp.ns);
-    if cos <= 0.0 || wi.dot(sp.ng) <= 0.0 || !bsdf.has_smooth() {
+    let side = match carries {
+        Carries::Importance => cos > 0.0,
+        Carries::Light => true,
+    };
+    if !side || wi.dot(sp.ng) <= 0.0 || !bsdf.has_smooth() {
         return None;
     }
     let f = bsdf.eval(wi);
     let survive = continuation(bsdf);
     (f != Vec3::ZERO).then(|| Lobes {
         f,
-        cos,
-        forward: bsdf.pdf(wi) * survive,
-        reverse: bsdf.pdf_reverse(wi) * survive,
+        cos: cos.abs(),
+        forward: carries.pdf(bsdf, wi) * survive,
+        reverse: carries.other().pdf_reverse(bsdf, wi) * survive,
     })
 }
 
@@ -501,11 +557,14 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
         if path.length + 2 > pass.max_length {
             return;
         }
-        let Some((next, s)) = path.scatter(&bsdf, &sp, pass, rng) else { return };
+        let Some((next, s)) = path.scatter(&bsdf, &sp, pass, Carries::Light, rng) else { return };
         if !smooth && !s.kind.is_specular() {
             return;
         }
-        path.throughput *= sp.adjoint_shading(-dir, s.wi);
+        // The smooth lobes' draw holds Veach's correction (`sample_adjoint`).
+        if s.kind.is_specular() {
+            path.throughput *= sp.adjoint_shading(-dir, s.wi);
+        }
         if path.throughput == Vec3::ZERO || !path.throughput.is_finite() {
             return;
         }
@@ -654,7 +713,7 @@ fn camera_path(
                     {
                         return;
                     }
-                    let Some(lobes) = lobes(&bsdf, &sp, -v.dir) else { return };
+                    let Some(lobes) = lobes(&bsdf, &sp, -v.dir, Carries::Importance) else { return };
                     let w_light = v.path.d_vcm * pass.vc_weight + v.path.d_vm * mis(lobes.forward);
                     let w_camera = path.d_vcm * pass.vc_weight + path.d_vm * mis(lobes.reverse);
                     // The merged vertex is this one: diffuse once if neither
@@ -671,7 +730,7 @@ fn camera_path(
                 });
             }
         }
-        let Some((next, s)) = path.scatter(&bsdf, &sp, pass, rng) else { return out };
+        let Some((next, s)) = path.scatter(&bsdf, &sp, pass, Carries::Importance, rng) else { return out };
         scale = scale.after(&s);
         last_point = sp.p;
         class = class.after(s.kind.is_specular());
@@ -700,7 +759,7 @@ fn next_event(
         let to = sample.position - sp.p;
         let distance2 = to.length_squared();
         let wi = to / distance2.sqrt();
-        let Some(lobes) = lobes(bsdf, sp, wi) else { continue };
+        let Some(lobes) = lobes(bsdf, sp, wi, Carries::Importance) else { continue };
         let pdfs = light.emission_pdfs(-wi);
         if pdfs.cos <= 0.0 {
             continue;
@@ -738,9 +797,9 @@ fn connect(
     let to = v.sp.p - sp.p;
     let distance2 = to.length_squared();
     let dir = to / distance2.sqrt();
-    let Some(camera_side) = lobes(bsdf, sp, dir) else { return Vec3::ZERO };
+    let Some(camera_side) = lobes(bsdf, sp, dir, Carries::Importance) else { return Vec3::ZERO };
     let light_bsdf = Bsdf::new(ctx.query.material(&v.sp), &v.sp, v.dir);
-    let Some(light_side) = lobes(&light_bsdf, &v.sp, -dir) else { return Vec3::ZERO };
+    let Some(light_side) = lobes(&light_bsdf, &v.sp, -dir, Carries::Light) else { return Vec3::ZERO };
     let geometry = camera_side.cos * light_side.cos / distance2;
     // Each side's density of making the other's vertex, per unit area there.
     let camera_makes_light = camera_side.forward * light_side.cos / distance2;
@@ -757,5 +816,18 @@ fn connect(
     if finite(value) == Vec3::ZERO || ctx.query.occluded(&sp.spawn_to(v.sp.p), count) {
         return Vec3::ZERO;
     }
+    // A shadow ray stops just short of its end, where a way that leaves the
+    // light vertex below its shading normal may graze past the triangle's
+    // edge into the next one: on a closed shell around a point light, such
+    // joins lit its outside. From the light vertex's side that is seen.
+    if light_side_below(v, dir) && ctx.query.occluded(&v.sp.spawn_to(sp.p), count) {
+        return Vec3::ZERO;
+    }
     value
+}
+
+/// Whether the way from the light vertex `v` to a camera vertex in the
+/// direction `-dir` lies below its shading normal.
+fn light_side_below(v: &LightVertex, dir: Vec3) -> bool {
+    (-dir).dot(v.sp.ns) <= 0.0
 }
