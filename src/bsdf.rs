@@ -260,14 +260,13 @@ impl<'a> Bsdf<'a> {
         if !sp.smooth_lobes_take(self.wo()) {
             return None;
         }
-        let (wi, kind) = if u_lobe < diffuse {
-            (around(sp.ng, cosine_hemisphere(rng.uniform2())), ScatterKind::Diffuse)
-        } else {
-            (self.sample_glossy(rng.uniform2()), ScatterKind::Glossy)
-        };
+        let (wi, kind) = self.draw_smooth(u_lobe, sp.ng, rng);
         let cos = wi.dot(sp.ng);
-        let pdf = self.pdf_adjoint(wi);
-        if cos <= 0.0 || pdf <= 0.0 {
+        if cos <= 0.0 {
+            return None;
+        }
+        let pdf = self.mixture_pdf(wi, cos);
+        if pdf <= 0.0 {
             return None;
         }
         Some(BsdfSample {
@@ -277,6 +276,17 @@ impl<'a> Bsdf<'a> {
             kind,
             indices: None,
         })
+    }
+
+    /// A direction from the smooth lobe `u_lobe` picks (below the diffuse
+    /// lobe's chance, the diffuse one, drawn by the cosine about `axis`;
+    /// else the glossy one, about its mirror direction), and which it is.
+    fn draw_smooth(&self, u_lobe: f32, axis: Vec3, rng: &mut Rng) -> (Vec3, ScatterKind) {
+        if u_lobe < self.choice[0] {
+            (around(axis, cosine_hemisphere(rng.uniform2())), ScatterKind::Diffuse)
+        } else {
+            (self.sample_glossy(rng.uniform2()), ScatterKind::Glossy)
+        }
     }
 
     /// Solid-angle density with which [`Bsdf::sample_adjoint`] produces `wi`
@@ -305,11 +315,7 @@ impl<'a> Bsdf<'a> {
         let (sp, m) = (self.sp, self.material);
         let smooth = diffuse + glossy;
         if u_lobe < smooth {
-            let (wi, kind) = if u_lobe < diffuse {
-                (around(sp.ns, cosine_hemisphere(rng.uniform2())), ScatterKind::Diffuse)
-            } else {
-                (self.sample_glossy(rng.uniform2()), ScatterKind::Glossy)
-            };
+            let (wi, kind) = self.draw_smooth(u_lobe, sp.ns, rng);
             let cos = wi.dot(sp.ns);
             let pdf = self.pdf(wi);
             if cos <= 0.0 || wi.dot(sp.ng) <= 0.0 || pdf <= 0.0 {

@@ -557,11 +557,10 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
         if path.length + 2 > pass.max_length {
             return;
         }
+        // Light from below the shading normal's side goes on by mirror and
+        // glass alone: `sample_adjoint` draws no smooth lobe for it. The
+        // smooth lobes' draw holds Veach's correction.
         let Some((next, s)) = path.scatter(&bsdf, &sp, pass, Carries::Light, rng) else { return };
-        if !smooth && !s.kind.is_specular() {
-            return;
-        }
-        // The smooth lobes' draw holds Veach's correction (`sample_adjoint`).
         if s.kind.is_specular() {
             path.throughput *= sp.adjoint_shading(-dir, s.wi);
         }
