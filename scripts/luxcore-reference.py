@@ -117,6 +117,7 @@ def luxcore_properties(args, scene, workdir):
         f'renderengine.type = "{ENGINES[args.engine]}"',
         'sampler.type = "SOBOL"' if args.engine.startswith("path") else 'sampler.type = "RANDOM"',
         f"path.hybridbackforward.enable = {1 if args.engine == 'path+light' else 0}",
+        # LuxCore takes a seed of 0 as 1: moved by one, every seed its own.
         f"renderengine.seed = {args.seed + 1}",
         f"native.threads.count = {args.threads or os.cpu_count()}",
         f"film.width = {width}",
