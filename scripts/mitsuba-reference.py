@@ -153,7 +153,8 @@ def main():
     mi.set_variant(args.variant)
     scene = cs.load(args.scene)
     with tempfile.TemporaryDirectory() as workdir:
-        loaded = mi.load_dict(mitsuba_scene(args, scene, workdir))
+        description = mitsuba_scene(args, scene, workdir)
+        loaded = mi.load_dict(description)
     start = time.time()
     total, spp, rounds = None, 0, 0
     while True:
@@ -166,7 +167,7 @@ def main():
             break
     seconds = time.time() - start
     mi.Bitmap((total / spp).astype(np.float32)).write(args.output)
-    print(f"{args.output}: {spp} spp in {seconds:.1f} s with Mitsuba {mi.__version__} ({args.variant}, path, max_depth {int(scene.get('render', {}).get('max_depth', 10)) + 1})")
+    print(f"{args.output}: {spp} spp in {seconds:.1f} s with Mitsuba {mi.__version__} ({args.variant}, path, max_depth {description['integrator']['max_depth']})")
 
 
 if __name__ == "__main__":
