@@ -126,18 +126,53 @@ def area_light_radiance(light):
     return [p / (np.pi * area) for p in rgb(light["power"])]
 
 
+def spot_lights(path, scene, peer):
+    """Each spot light as (position, unit direction, cone half-angle in
+    degrees, intensity on its axis), for spot lights with a hard edge
+    (`falloff_start` equal to `cone_angle`) only: those send the same
+    intensity every way inside the cone, which every peer gives. A soft edge
+    falls off differently in each (caustix, like pbrt-v4, as a smoothstep in
+    the cosine; Mitsuba linearly in the angle; LuxCore as the fourth power of
+    the cosine's share), so those are refused."""
+    out = []
+    for i, light in enumerate(scene.get("spot_light", [])):
+        cone = float(light["cone_angle"])
+        start = float(light.get("falloff_start", 0.8 * cone))
+        if start != cone:
+            refuse(
+                path,
+                f"[[spot_light]] #{i + 1}: its soft edge (falloff_start {start} of cone_angle {cone}) falls off "
+                f"differently in {peer}; give it falloff_start = cone_angle (a hard edge) to compare",
+            )
+        direction = np.array(light["direction"], float)
+        direction /= np.linalg.norm(direction)
+        # The cone's solid angle, 2 pi (1 - cos), with 1 - cos as caustix
+        # works it out (from the sine), so narrow cones keep their digits.
+        solid_angle = 4 * np.pi * np.sin(np.radians(cone) / 2) ** 2
+        intensity = [p / solid_angle for p in rgb(light["power"])]
+        out.append((list(map(float, light["position"])), direction.tolist(), cone, intensity))
+    return out
+
+
+def perpendicular(direction):
+    """A unit vector at right angles to `direction` (an "up" for a light's frame)."""
+    d = np.array(direction, float)
+    axis = np.eye(3)[np.argmin(np.abs(d))]
+    p = np.cross(d, axis)
+    return (p / np.linalg.norm(p)).tolist()
+
+
 def checked(args, scene, peer):
     """The camera, the image's size and caustix's longest path (rays from
     the camera, `--max-depth` over the scene's), after refusing what the
-    peer has no counterpart for (ambient light, spot lights)."""
+    peer has no counterpart for (ambient light, soft-edged spot lights)."""
     path = args.scene
     camera = scene.get("camera") or refuse(path, "no [camera]")
     image = scene.get("image", {})
     render = scene.get("render", {})
     if any(c != 0 for c in rgb(render.get("ambient", 0.0))):
         refuse(path, f"ambient light has no counterpart in {peer}")
-    if scene.get("spot_light"):
-        refuse(path, f"spot lights fall off differently in {peer}; this script does not convert them")
+    spot_lights(path, scene, peer)
     max_depth = getattr(args, "max_depth", None) or int(render.get("max_depth", 10))
     width = args.width or int(image.get("width", 640))
     height = args.height or int(image.get("height", 480))

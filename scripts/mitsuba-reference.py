@@ -4,6 +4,7 @@ another renderer, to hold caustix's images against (BENCHMARKS.md).
 
     scripts/mitsuba-reference.py SCENE.toml -o OUT.exr [--width W --height H]
         [--spp N | --time SECONDS] [--seed S] [--caustix PATH] [--variant V]
+        [--integrator path|ptracer]
 
 Every object goes over as the very triangles caustix renders (`caustix
 export` writes each to a PLY file, with its normals), so the two renderers
@@ -14,16 +15,21 @@ see the same geometry and shading normals. What maps exactly:
   and `conductor` (no absorption, scaled by the part), both two-sided as
   caustix's are, and `dielectric`;
 - area lights (one-sided, radiance power / (pi area), a black back that
-  blocks light), point lights (intensity power / (4 pi));
+  blocks light), point lights (intensity power / (4 pi)), spot lights with
+  a hard edge (`falloff_start` = `cone_angle`; intensity power / (2 pi (1 -
+  cos cone_angle)));
 - the pinhole camera (vertical field of view), a box pixel filter, and the
   longest path: caustix's `max_depth` rays from the camera, each hit lit
   by a light sample, is Mitsuba's `max_depth + 1` segments.
 
-What does not (the Phong lobe `specular`, materials of several parts, spot
-lights, ambient light) is refused with a message rather than approximated. Mitsuba's path tracer
-finds a point light's caustics no better than caustix's path tracer: it
-has no path for light through glass from a point light, so for scenes that
-have such light its image lacks it.
+What does not (the Phong lobe `specular`, materials of several parts,
+spot lights' soft edges, ambient light) is refused with a message rather than
+approximated. Mitsuba's path tracer finds a point light's caustics no
+better than caustix's path tracer: it has no path for light through glass
+from a point light, so for scenes that have such light its image lacks it.
+Its particle tracer (`--integrator ptracer`, as caustix's `light`) finds
+those seen directly, but not what a camera sees in a mirror or through
+glass.
 
 Needs `pip install mitsuba numpy` and a caustix binary (target/release/caustix
 by default). The `llvm_ad_rgb` variant needs libLLVM 16 or later (`apt-get install
@@ -77,7 +83,8 @@ def mitsuba_scene(args, scene, workdir):
         "type": "scene",
         # caustix: `max_depth` rays from the camera and a light sample at
         # the last hit (BSDF-sampled hits of lights on all but the last).
-        "integrator": {"type": "path", "max_depth": max_depth + 1},
+        # The particle tracer (`ptracer`) counts its segments the same way.
+        "integrator": {"type": args.integrator, "max_depth": max_depth + 1},
         "camera": {
             "type": "perspective",
             "fov": float(camera.get("fov", 40.0)),
@@ -112,6 +119,18 @@ def mitsuba_scene(args, scene, workdir):
             "position": light["position"],
             "intensity": {"type": "rgb", "value": intensity},
         }
+    for i, (position, direction, cone, intensity) in enumerate(cs.spot_lights(path, scene, "Mitsuba")):
+        target = [p + d for p, d in zip(position, direction)]
+        out[f"spot-light-{i}"] = {
+            "type": "spot",
+            # Mitsuba's spot shines along its frame's z, which look_at turns
+            # towards the target.
+            "to_world": mi.ScalarTransform4f().look_at(origin=position, target=target, up=cs.perpendicular(direction)),
+            "intensity": {"type": "rgb", "value": intensity},
+            # A hard edge: the beam as wide as the cone.
+            "cutoff_angle": cone,
+            "beam_width": cone,
+        }
     return out
 
 
@@ -140,6 +159,13 @@ def main():
     parser.add_argument("--round-spp", type=int, default=64)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--variant", default="llvm_ad_rgb")
+    parser.add_argument(
+        "--integrator",
+        choices=("path", "ptracer"),
+        default="path",
+        help="Mitsuba's path tracer (default) or its particle tracer, which traces light from the lights to the camera "
+        "and so renders a point or spot light's caustics seen directly",
+    )
     parser.add_argument("--caustix", default=cs.default_caustix())
     args = parser.parse_args()
 
@@ -167,7 +193,7 @@ def main():
             break
     seconds = time.time() - start
     mi.Bitmap((total / spp).astype(np.float32)).write(args.output)
-    print(f"{args.output}: {spp} spp in {seconds:.1f} s with Mitsuba {mi.__version__} ({args.variant}, path, max_depth {description['integrator']['max_depth']})")
+    print(f"{args.output}: {spp} spp in {seconds:.1f} s with Mitsuba {mi.__version__} ({args.variant}, {args.integrator}, max_depth {description['integrator']['max_depth']})")
 
 
 if __name__ == "__main__":
