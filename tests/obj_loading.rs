@@ -76,7 +76,8 @@ fn mtl_features_not_read_are_warned_about_once_per_kind() {
     let warned = |says: &str| scene.warnings.iter().filter(|w| w.contains(says)).count();
     assert_eq!(scene.warnings.len(), 3, "{:#?}", scene.warnings);
     assert_eq!(warned("room.obj: 3 of its 4 materials use texture maps (`wood0`: map_Kd `wood0.png`)"), 1);
-    assert_eq!(warned("room.obj: 1 of its 4 materials emits light (Ke, as `lamp` does)"), 1);
+    // The lamp's one triangle makes no area light (a parallelogram).
+    assert_eq!(warned("room.obj: 1 triangle of materials that emit light (Ke, as `lamp` does) make no"), 1);
     assert_eq!(warned("were left out: Pr, norm ("), 1, "{:#?}", scene.warnings);
     // The flat colours are what renders.
     let wood = scene.meshes.iter().find(|m| m.name == "room.obj:wood1").unwrap();
@@ -649,4 +650,150 @@ fn open_glass_meshes_are_named() {
     let half = file_materials("half_lid.obj");
     assert_eq!(half.len(), 1, "{half:?}");
     assert!(half[0].contains("2 of its 10 glass triangles"), "{half:?}");
+}
+
+/// The Cornell box as OBJ files pass it around: walls, and a light that is
+/// a quad of a material with `Ke` (facing down by its winding).
+const CORNELL_MTL: &str = "newmtl white\nKd 0.725 0.71 0.68\n\
+    newmtl red\nKd 0.63 0.065 0.05\n\
+    newmtl green\nKd 0.14 0.45 0.091\n\
+    newmtl light\nKd 0.78 0.78 0.78\nKe 17 12 4\n";
+const CORNELL_WALLS: &str = "mtllib box.mtl\n\
+    o floor\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nusemtl white\nf -4 -3 -2 -1\n\
+    o ceiling\nv -1 2 1\nv -1 2 -1\nv 1 2 -1\nv 1 2 1\nusemtl white\nf -4 -3 -2 -1\n\
+    o back\nv -1 0 -1\nv 1 0 -1\nv 1 2 -1\nv -1 2 -1\nusemtl white\nf -4 -3 -2 -1\n\
+    o right\nv 1 0 -1\nv 1 0 1\nv 1 2 1\nv 1 2 -1\nusemtl green\nf -4 -3 -2 -1\n\
+    o left\nv -1 0 1\nv -1 0 -1\nv -1 2 -1\nv -1 2 1\nusemtl red\nf -4 -3 -2 -1\n";
+/// The light, as one quad and as two triangles given apart (its corners
+/// written twice), both wound to face down.
+const CORNELL_LIGHT_QUAD: &str = "o light\nv -0.24 1.98 0.16\nv -0.24 1.98 -0.22\nv 0.23 1.98 -0.22\n\
+    v 0.23 1.98 0.16\nusemtl light\nf -4 -3 -2 -1\n";
+const CORNELL_LIGHT_TRIANGLES: &str = "o light\nv -0.24 1.98 0.16\nv -0.24 1.98 -0.22\nv 0.23 1.98 -0.22\n\
+    v -0.24 1.98 0.16\nv 0.23 1.98 -0.22\nv 0.23 1.98 0.16\nusemtl light\nf 21 22 23\nf 24 25 26\n";
+const CORNELL_CAMERA: &str = "[camera]\neye = [0, 1, 3.9]\nlook_at = [0, 1, 0]\nfov = 33\n\
+    [image]\nwidth = 24\nheight = 24\n";
+
+/// The area light a scene holds, as (centre in the file, u x v, power).
+fn only_area_light(scene: &Scene) -> (Vec3, Vec3, Vec3) {
+    let lights: Vec<_> = scene.lights.iter().collect();
+    let [caustix::light::Light::Area { center, u, v, power, .. }] = lights[..] else {
+        panic!("not one area light: {lights:?}")
+    };
+    (common::in_file(scene, *center), u.cross(*v), *power)
+}
+
+/// An OBJ face of a material that emits (`Ke`) and makes a parallelogram
+/// becomes an area light of that radiance facing the side its winding
+/// does, as a scene file's `[[area_light]]` in its place: the box renders
+/// as the same walls with that light declared. Placed by the [[mesh]]'s
+/// transform, the light keeps its radiance (power by its area) and its
+/// front, mirrored or not.
+#[test]
+fn faces_that_emit_become_area_lights() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "box.mtl", CORNELL_MTL);
+    write(dir.path(), "quad.obj", &format!("{CORNELL_WALLS}{CORNELL_LIGHT_QUAD}"));
+    write(dir.path(), "triangles.obj", &format!("{CORNELL_WALLS}{CORNELL_LIGHT_TRIANGLES}"));
+    write(dir.path(), "walls.obj", CORNELL_WALLS);
+    let (width, depth) = (0.47f32, 0.38f32);
+    let radiance = Vec3::new(17.0, 12.0, 4.0);
+    for file in ["quad.obj", "triangles.obj"] {
+        let text = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"{file}\"\n");
+        let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+        assert!(scene.warnings.is_empty(), "{file}: {:#?}", scene.warnings);
+        let (center, facing, power) = only_area_light(&scene);
+        assert!(center.abs_diff_eq(Vec3::new(-0.005, 1.98, -0.03), 1e-5), "{file}: {center}");
+        assert!(facing.abs_diff_eq(Vec3::new(0.0, -width * depth, 0.0), 1e-5), "{file}: {facing}");
+        let expected = radiance * std::f32::consts::PI * width * depth;
+        assert!(power.abs_diff_eq(expected, 1e-3 * expected.max_element()), "{file}: {power}");
+        // Its faces left the mesh: 5 walls of 2 triangles.
+        assert!(scene.meshes.iter().all(|m| !m.name.ends_with(":light")), "{file}");
+        assert_eq!(scene.triangle_count(), 10, "{file}");
+
+        // Scaled by 2 and mirrored in x: the same radiance over 4 times the
+        // area, still facing down.
+        let text =
+            format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"{file}\"\ntransform = {{ scale = [-2, 2, 2] }}\n");
+        let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+        let (center, facing, power) = only_area_light(&scene);
+        assert!(center.abs_diff_eq(Vec3::new(0.01, 3.96, -0.06), 1e-5), "{file}: {center}");
+        assert!(facing.normalize().abs_diff_eq(Vec3::NEG_Y, 1e-6), "{file}: {facing}");
+        assert!(power.abs_diff_eq(4.0 * expected, 4e-3 * expected.max_element()), "{file}: {power}");
+    }
+
+    // The render: the walls with the light declared where the quad was.
+    let from_file = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"quad.obj\"\n");
+    let power = radiance * std::f32::consts::PI * width * depth;
+    let declared = format!(
+        "{CORNELL_CAMERA}[[mesh]]\nfile = \"walls.obj\"\n\
+         [[area_light]]\ncenter = [-0.005, 1.98, -0.03]\nu = [0.47, 0, 0]\nv = [0, 0, 0.38]\n\
+         power = [{}, {}, {}]\n",
+        power.x, power.y, power.z
+    );
+    let image = |text: &str| {
+        let scene = Scene::load(&write(dir.path(), "r.toml", text)).unwrap();
+        let accel = caustix::accel::build(caustix::accel::Backend::Embree, &scene.triangle_views()).unwrap();
+        let config = caustix::RenderConfig {
+            integrator: "path".parse().unwrap(),
+            samples: 64,
+            ..scene.config.clone()
+        };
+        caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap().film.beauty()
+    };
+    let (a, b) = (image(&from_file), image(&declared));
+    let mean = |img: &caustix::film::Image| img.pixels.iter().map(|p| p.element_sum()).sum::<f32>();
+    let ratio = mean(&a) / mean(&b);
+    assert!((ratio - 1.0).abs() < 0.01, "image from the file's light / declared light: {ratio}");
+    // The light itself is seen at its radiance: the pixels at the top
+    // centre hold it in both.
+    let brightest = |img: &caustix::film::Image| img.pixels.iter().map(|p| p.x).fold(0.0, f32::max);
+    assert!(brightest(&a) > 0.5 * radiance.x, "{}", brightest(&a));
+}
+
+/// Emitting faces that make no parallelogram, and an emission that is no
+/// colour, are said: they do not emit.
+#[test]
+fn emission_that_makes_no_light_is_said() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "box.mtl", &format!("{CORNELL_MTL}newmtl wrong\nKe 1 -1 0\n"));
+    // A triangle of the light's material, and one of the wrong one.
+    let extra = "o lamp\nv 0 1.9 0\nv 0.1 1.9 0\nv 0 1.9 0.1\nusemtl light\nf -3 -1 -2\n\
+                 o odd\nv 0 1 0\nv 0.1 1 0\nv 0 1 0.1\nusemtl wrong\nf -3 -1 -2\n";
+    write(dir.path(), "b.obj", &format!("{CORNELL_WALLS}{CORNELL_LIGHT_QUAD}{extra}"));
+    let text = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"b.obj\"\n");
+    let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+    assert_eq!(scene.lights.len(), 1);
+    assert_eq!(scene.warnings.len(), 2, "{:#?}", scene.warnings);
+    assert!(
+        scene.warnings.iter().any(|w| w.contains(
+            "b.obj: 1 triangle of materials that emit light (Ke, as `light` does) make no parallelogram"
+        )),
+        "{:#?}",
+        scene.warnings
+    );
+    assert!(
+        scene.warnings.iter().any(|w| w.contains(
+            "1 of its 5 materials gives an emission (Ke) with a negative or infinite part (as `wrong` does)"
+        )),
+        "{:#?}",
+        scene.warnings
+    );
+    // The lamp's triangle stays a surface.
+    assert!(scene.meshes.iter().any(|m| m.name == "b.obj:lamp"));
+}
+
+/// `caustix info` of a mesh file with lights of its own lists them, and the
+/// scene it prints is lit by them alone (no point light of its own).
+#[test]
+fn info_of_a_mesh_with_lights_frames_it_lit_by_them() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "box.mtl", CORNELL_MTL);
+    let obj = write(dir.path(), "box.obj", &format!("{CORNELL_WALLS}{CORNELL_LIGHT_QUAD}"));
+    let run = common::caustix(&["info".as_ref(), obj.as_os_str()]);
+    let out = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(out.contains("# lights    1 area light, from faces that emit (Ke)"), "{out}");
+    assert!(!out.contains("[[point_light]]"), "{out}");
+    let scene = Scene::load(&write(dir.path(), "framed.toml", &out)).unwrap();
+    assert_eq!(scene.lights.len(), 1);
 }

@@ -231,7 +231,12 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
     let meshes = &contents.meshes;
     let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
     let vertices: usize = meshes.iter().map(|m| m.positions.len()).sum();
-    let b = meshes.iter().fold(caustix::bounds::Bounds::EMPTY, |b, m| b.union(m.bounds()));
+    let mut b = meshes.iter().fold(caustix::bounds::Bounds::EMPTY, |b, m| b.union(m.bounds()));
+    for light in &contents.lights {
+        for (i, j) in [(-0.5, -0.5), (-0.5, 0.5), (0.5, -0.5), (0.5, 0.5)] {
+            b = b.grow((light.center + i * light.u + j * light.v).as_vec3());
+        }
+    }
     // Every line a TOML comment but the scene's: `caustix info bunny.obj >
     // bunny.toml` is a scene to render as it is.
     outln!("# mesh      {} (loaded in {:.2} s)", path.display(), start.elapsed().as_secs_f64());
@@ -240,6 +245,20 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
     outln!("# bounds    {} to {} (size {})", b.min, b.max, b.max - b.min);
     for m in meshes {
         outln!("#   mesh    {:<24} {:>9} triangles", m.name, m.indices.len());
+    }
+    if !contents.lights.is_empty() {
+        let n = contents.lights.len();
+        outln!("# lights    {n} area light{}, from faces that emit (Ke)", if n == 1 { "" } else { "s" });
+        for l in &contents.lights {
+            outln!(
+                "#   light   {:<24} centre {}, {} x {}, radiance {}",
+                l.mesh,
+                l.center.as_vec3(),
+                l.u.length() as f32,
+                l.v.length() as f32,
+                l.radiance
+            );
+        }
     }
     // Which key the [[mesh]] needs, if any.
     let needs = if contents.defaulted.is_empty() {
@@ -263,16 +282,17 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
     let name =
         path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
     outln!("#\n# A scene that frames it, to save beside {name} as a .toml file and render.\n");
-    out!("{}", framing_scene(b, &name, needs));
+    out!("{}", framing_scene(b, &name, needs, contents.lights.is_empty()));
     Ok(())
 }
 
 /// Scene text that shows a mesh whose box is `b`: the camera (40 degrees)
 /// back from the box's centre along a view from the front, above and to the
 /// right, far enough that the box's sphere fills the height; a point light
-/// above and in front; a grey floor under the box, four times its size;
-/// the grey as the mesh's `needs` key (`material`, `default_material`) if any.
-fn framing_scene(b: caustix::bounds::Bounds, file: &str, needs: Option<&str>) -> String {
+/// above and in front (if `point_light`: a mesh with lights of its own has
+/// none); a grey floor under the box, four times its size; the grey as the
+/// mesh's `needs` key (`material`, `default_material`) if any.
+fn framing_scene(b: caustix::bounds::Bounds, file: &str, needs: Option<&str>, point_light: bool) -> String {
     use glam::Vec3;
     let centre = 0.5 * (b.min + b.max);
     let radius = (0.5 * (b.max - b.min).length()).max(f32::MIN_POSITIVE.sqrt());
@@ -284,15 +304,19 @@ fn framing_scene(b: caustix::bounds::Bounds, file: &str, needs: Option<&str>) ->
     let power = 1.5 * 4.0 * std::f32::consts::PI * (light - centre).length_squared();
     let point = |p: Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
     let material = needs.map_or_else(String::new, |key| format!("{key} = \"grey\"\n"));
+    let light = if point_light {
+        format!("[[point_light]]\nposition = {}\npower = {power}\n\n", point(light))
+    } else {
+        "# (lit by the mesh's own lights)\n\n".to_string()
+    };
     format!(
         "[camera]\neye = {}\nlook_at = {}\nfov = 40.0\n\n\
          [materials.grey]\ndiffuse = 0.7\n\n\
-         [[point_light]]\nposition = {}\npower = {power}\n\n\
+         {light}\
          [[quad]]\ncenter = {}\nu = [{}, 0.0, 0.0]\nv = [0.0, 0.0, {}]\nmaterial = \"grey\"\n\n\
          [[mesh]]\nfile = \"{file}\"\n{material}",
         point(eye),
         point(centre),
-        point(light),
         point(Vec3::new(centre.x, b.min.y, centre.z)),
         8.0 * radius,
         -8.0 * radius,

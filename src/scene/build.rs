@@ -44,7 +44,7 @@ impl Builder<'_> {
         let camera = Camera::new(self.place(cam.eye), self.place(cam.look_at), cam.up.0, cam.fov.0)
             .map_err(|msg| Error::input(self.path, format!("[camera]: {msg}")))?;
         let (mut materials, material_ids) = self.materials(&f)?;
-        let lights = self.lights(&f)?;
+        let mut lights = self.lights(&f)?;
         let lookup = |name: &Spanned<String>| -> Result<usize> {
             material_ids.get(name.get_ref()).copied().ok_or_else(|| {
                 let known: Vec<&str> = f.materials.keys().map(String::as_str).collect();
@@ -57,7 +57,7 @@ impl Builder<'_> {
             })
         };
         let mut meshes = self.shapes(&f, &lookup)?;
-        let mesh_warnings = self.mesh_files(&f, &lookup, &mut meshes, &mut materials)?;
+        let mesh_warnings = self.mesh_files(&f, &lookup, &mut meshes, &mut materials, &mut lights)?;
         self.warnings.extend(mesh_warnings);
 
         let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
@@ -354,13 +354,15 @@ impl Builder<'_> {
     }
 
     /// The `[[mesh]]` files (OBJ with their MTL materials, or PLY), added to
-    /// `meshes` and `materials`; returns what the files warned about.
+    /// `meshes` and `materials`, and the lights their emitting faces make
+    /// to `lights`; returns what the files warned about.
     fn mesh_files(
         &self,
         f: &file::SceneFile,
         lookup: &MaterialLookup,
         meshes: &mut Vec<Mesh>,
         materials: &mut Vec<Material>,
+        lights: &mut Vec<Light>,
     ) -> Result<Vec<String>> {
         // Each [[mesh]]'s file and the materials its faces take.
         let mut entries = Vec::with_capacity(f.mesh.len());
@@ -404,19 +406,27 @@ impl Builder<'_> {
                 })?;
                 materials.extend(contents.materials);
                 obj_warnings.extend(contents.warnings);
-                if contents.meshes.iter().all(|mesh| mesh.indices.is_empty()) {
+                if contents.meshes.iter().all(|mesh| mesh.indices.is_empty()) && contents.lights.is_empty() {
                     obj_warnings.push(format!(
                         "{}: no triangles (no face of three or more corners with an area): this \
                          [[mesh]] adds nothing to the scene",
                         obj_path.display()
                     ));
                 }
-                Ok(contents.meshes)
+                Ok((contents.meshes, contents.lights))
             })?;
             let matrix = transform_matrix(&m.transform);
+            let (file_meshes, file_lights) = file_meshes;
             for mut mesh in file_meshes {
                 mesh.place(&matrix, self.origin);
                 meshes.push(mesh);
+            }
+            for (i, light) in file_lights.iter().enumerate() {
+                let name = format!("the light of {} #{}", light.mesh, i + 1);
+                match light.placed(&matrix, self.origin) {
+                    Some(placed) => lights.push(self.within_reach(&name, placed)?),
+                    None => obj_warnings.push(format!("{name}: the [[mesh]]'s transform leaves it no area")),
+                }
             }
         }
 
@@ -589,7 +599,13 @@ pub(super) fn load_mesh_file(
     let mesh = normals.mesh(name.clone(), positions, indices, material);
     warnings.extend(mesh::no_area_warning(&name, faces, mesh.indices.len()));
     let defaulted = if defaulted { vec![mesh.name.clone()] } else { Vec::new() };
-    Ok(obj::ObjContents { meshes: vec![mesh], materials: Vec::new(), warnings, defaulted })
+    Ok(obj::ObjContents {
+        meshes: vec![mesh],
+        materials: Vec::new(),
+        warnings,
+        defaulted,
+        lights: Vec::new(),
+    })
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ pub mod camera;
 pub mod creases;
 mod file;
 pub mod mesh;
+pub mod mesh_lights;
 pub mod obj;
 pub mod ply;
 pub mod polygon;

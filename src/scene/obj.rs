@@ -8,6 +8,7 @@ use std::str::SplitWhitespace;
 use glam::Vec3;
 
 use super::mesh::{self, FileNormals, Mesh};
+use super::mesh_lights::{self, MeshLight};
 use super::polygon::{self, Concave};
 use super::winding;
 use crate::error::{Error, Location, Result};
@@ -39,6 +40,9 @@ pub struct ObjContents {
     /// The meshes (by name) whose faces the file gives no material, which
     /// took [`MeshMaterials::FromFile`]'s fallback.
     pub defaulted: Vec<String>,
+    /// The area lights its emitting faces make ([`mesh_lights`]), in the
+    /// file's coordinates; those faces are not in `meshes`.
+    pub lights: Vec<MeshLight>,
 }
 
 /// Loads `path`, its faces' materials chosen by `choice` (whose numbers
@@ -113,10 +117,13 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         }
     }
     let mut mtl_names = Vec::new();
+    // Each MTL material's emitted radiance (`Ke`), where it emits.
+    let mut emission = Vec::new();
     let materials = match (mtl, material_override) {
         (Ok(list), None) => {
             mtl_names.extend(list.iter().map(|m| m.name.clone()));
             warnings.extend(unread_mtl_features(&list, &file_name));
+            emission.extend(list.iter().map(emitted));
             list.iter().map(|m| convert_material(m, &file_name, &mut warnings)).collect()
         }
         _ => Vec::new(),
@@ -135,6 +142,9 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         turned: winding::Turned,
     }
     let mut objects = Vec::with_capacity(models.len());
+    let mut lights = Vec::new();
+    // Emitting faces that made no light, and a material of theirs.
+    let (mut dark_faces, mut dark_material) = (0, None);
     let mut enclosed = 0.0;
     let mut defaulted = Vec::new();
     let mut concave = Concave::default();
@@ -165,12 +175,14 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
             .then(|| m.normals.chunks_exact(3).map(Vec3::from_slice).collect());
         let name = format!("{file_name}:{}", model.name);
         let scene_glass = |id: usize| is_glass(scene_materials, id);
-        let (material, glass) = match (material_override, m.material_id, fallback) {
-            (Some(id), _, _) => (id, scene_glass(id)),
-            (None, Some(id), _) if id < materials.len() => (first_material + id, materials[id].refracts()),
+        let (material, glass, emits) = match (material_override, m.material_id, fallback) {
+            (Some(id), _, _) => (id, scene_glass(id), None),
+            (None, Some(id), _) if id < materials.len() => {
+                (first_material + id, materials[id].refracts(), emission[id].map(|e| (e, id)))
+            }
             (None, _, Some(id)) => {
                 defaulted.push(name.clone());
-                (id, scene_glass(id))
+                (id, scene_glass(id), None)
             }
             (None, _, None) => {
                 let why = why_no_material(&text, &mtl_names);
@@ -178,6 +190,24 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
             }
         };
         let mut indices = indices;
+        if let Some((radiance, id)) = emits {
+            // In the file's winding, before `winding::orient` may turn it.
+            let (found, left) = mesh_lights::parallelograms(&positions, normals.as_deref(), &indices);
+            lights.extend(found.into_iter().map(|(center, u, v)| MeshLight {
+                mesh: name.clone(),
+                center,
+                u,
+                v,
+                radiance,
+            }));
+            if left.is_empty() {
+                // All of it became lights.
+                continue;
+            }
+            dark_faces += left.len();
+            dark_material.get_or_insert(mtl_names[id].clone());
+            indices = left;
+        }
         let normals = FileNormals::of(normals, &positions);
         let turned = winding::orient(&positions, &mut indices, normals.for_winding(), glass);
         enclosed += turned.enclosed;
@@ -219,6 +249,15 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         warnings.extend(mesh::no_area_warning(&who, faces, mesh.indices.len()));
         meshes.push(mesh);
     }
+    if let Some(name) = dark_material {
+        let triangles =
+            if dark_faces == 1 { "1 triangle".to_string() } else { format!("{dark_faces} triangles") };
+        warnings.push(format!(
+            "{file_name}: {triangles} of materials that emit light (Ke, as `{name}` does) make no parallelogram \
+             with a neighbour, and caustix's area lights are parallelograms: left as surfaces that do not emit \
+             (declare such lights in the scene file: `[[area_light]]`, README)"
+        ));
+    }
     warnings.extend(concave.warning().map(|w| format!("{file_name}: {w}")));
     let short = short_faces(&text);
     if let Some(&first) = short.first() {
@@ -227,7 +266,7 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
             short.len()
         ));
     }
-    Ok(ObjContents { meshes, materials, warnings, defaulted })
+    Ok(ObjContents { meshes, materials, warnings, defaulted, lights })
 }
 
 /// Whether material `id` of `materials` refracts (a number not there, as
@@ -477,10 +516,17 @@ fn convert_material(m: &tobj::Material, file: &str, warnings: &mut Vec<String>) 
     out
 }
 
+/// The radiance an MTL material emits (`Ke`), if it is a colour of no
+/// negative or infinite part with some light in it.
+fn emitted(m: &tobj::Material) -> Option<Vec3> {
+    let ke = Vec3::from_array(m.emissive?);
+    (ke.is_finite() && ke.min_element() >= 0.0 && ke.max_element() > 0.0).then_some(ke)
+}
+
 /// What the MTL materials of `file` ask for that caustix does not read,
 /// one warning per kind (not per material: a model may have hundreds):
-/// texture maps (the flat colours are used), emission (`Ke`; lights are
-/// declared in the scene file), and statements tobj keeps as unknown
+/// texture maps (the flat colours are used), emission that is not a
+/// colour (`Ke` with a negative or infinite part), and statements tobj keeps as unknown
 /// (`Pr`, `norm`, `Tr`, ...), but for those that say nothing beyond the
 /// defaults (`Tf 1 1 1`, `Tr 0`).
 fn unread_mtl_features(list: &[tobj::Material], file: &str) -> Vec<String> {
@@ -509,18 +555,19 @@ fn unread_mtl_features(list: &[tobj::Material], file: &str) -> Vec<String> {
             if textured.len() == 1 { "uses" } else { "use" }
         ));
     }
-    let glowing: Vec<&str> = list
+    let not_colours: Vec<&str> = list
         .iter()
-        .filter(|m| m.emissive.is_some_and(|e| e.iter().any(|&c| c > 0.0)))
+        .filter(|m| m.emissive.is_some_and(|e| e.iter().any(|&c| c != 0.0)) && emitted(m).is_none())
         .map(|m| m.name.as_str())
         .collect();
-    if let Some(name) = glowing.first() {
+    if let Some(name) = not_colours.first() {
         warnings.push(format!(
-            "{file}: {} of its {} materials {} light (Ke, as `{name}` does), which surfaces here do \
-             not: declare the lights in the scene file (`[[area_light]]`, README)",
-            glowing.len(),
+            "{file}: {} of its {} materials {} an emission (Ke) with a negative or infinite part (as `{name}` \
+             does), which is no light: {} not emit",
+            not_colours.len(),
             list.len(),
-            if glowing.len() == 1 { "emits" } else { "emit" }
+            if not_colours.len() == 1 { "gives" } else { "give" },
+            if not_colours.len() == 1 { "its faces do" } else { "their faces do" },
         ));
     }
     let says_nothing = |key: &str, value: &str| {

@@ -1,0 +1,239 @@
+//! Lights a mesh file gives by its faces: where an OBJ file's MTL material
+//! emits (`Ke`), its faces that make parallelograms (a quad, or two
+//! triangles across a diagonal) become area lights of that radiance, as a
+//! scene file's `[[area_light]]` would be. The light of the Cornell box as
+//! it is passed around as OBJ is such a quad.
+//!
+//! An area light is one-sided and blocks rays on both sides (its back is
+//! black), so the faces that become lights leave the mesh; the side a
+//! light faces is its faces' own, by their winding in the file (as
+//! Mitsuba and pbrt read an emitting mesh). Emitting faces that pair into
+//! no parallelogram stay surfaces that do not emit: caustix's area lights
+//! are parallelograms, and the loader says how many were left so.
+
+use std::collections::HashMap;
+
+use glam::{DMat4, DVec3, Vec3};
+
+use crate::light::Light;
+
+/// An emitting parallelogram of a mesh file, in the file's coordinates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshLight {
+    /// The mesh (file and object) it came from.
+    pub mesh: String,
+    /// Its centre.
+    pub center: DVec3,
+    /// A full edge vector: corners at `center +- u/2 +- v/2`; light leaves
+    /// from the side `u x v` faces.
+    pub u: DVec3,
+    /// The other full edge vector.
+    pub v: DVec3,
+    /// Radiance leaving its front (the material's `Ke`).
+    pub radiance: Vec3,
+}
+
+impl MeshLight {
+    /// The light where a `[[mesh]]`'s `matrix` puts it, relative to the
+    /// scene's `origin`; `None` if the matrix leaves it no area. Its power is
+    /// its radiance over its placed area, so a mesh scaled up sends more.
+    pub fn placed(&self, matrix: &DMat4, origin: DVec3) -> Option<Light> {
+        let center = (matrix.transform_point3(self.center) - origin).as_vec3();
+        let (mut u, mut v) = (matrix.transform_vector3(self.u), matrix.transform_vector3(self.v));
+        // A mirroring matrix turns u x v away from the faces' placed front
+        // (as it turns their winding, which `Mesh::place` turns back).
+        if matrix.determinant() < 0.0 {
+            std::mem::swap(&mut u, &mut v);
+        }
+        let area = u.cross(v).length();
+        if !(area > 0.0 && area.is_finite()) {
+            return None;
+        }
+        let power = (self.radiance.as_dvec3() * std::f64::consts::PI * area).as_vec3();
+        Some(Light::area(center, u.as_vec3(), v.as_vec3(), power))
+    }
+}
+
+/// A parallelogram as its centre and full edge vectors `u` and `v`, its
+/// front the side `u x v` faces.
+pub type Parallelogram = (DVec3, DVec3, DVec3);
+
+/// A corner by its position's bits (corners written twice are one).
+type Corner = [u32; 3];
+
+/// How far two triangles' fourth corners may lie from making an exact
+/// parallelogram, in the length of its longer diagonal: files give their
+/// coordinates to a few digits.
+const PARALLELOGRAM_TOLERANCE: f64 = 1e-4;
+
+/// Splits `triangles` (over `positions`) into the parallelograms they make
+/// in pairs, each as `(center, u, v)`, and the triangles left. Pairs are
+/// found across shared edges (by position, so a quad's two triangles and
+/// two faces given apart alike), in the order the triangles come; each
+/// triangle in one pair at most.
+///
+/// Which side a light faces: where the file gives vertex `normals`, the
+/// side its corners' normals point to (as Mitsuba's emitters face their
+/// shading normals and pbrt-v4 turns a triangle to its normals), whichever
+/// way its two triangles wind; without, the side both triangles wind
+/// counter-clockwise about (two that wind against each other make none).
+pub fn parallelograms(
+    positions: &[Vec3],
+    normals: Option<&[Vec3]>,
+    triangles: &[[u32; 3]],
+) -> (Vec<Parallelogram>, Vec<[u32; 3]>) {
+    let corner = |i: u32| positions[i as usize].as_dvec3();
+    let key = |i: u32| positions[i as usize].to_array().map(f32::to_bits);
+    // Each edge (by its corners' positions, the smaller first) and the
+    // triangles it bounds, in order, with whether it goes smaller first in
+    // that triangle's winding.
+    let mut edges: HashMap<(Corner, Corner), Vec<(usize, bool)>> = HashMap::new();
+    let edge =
+        |a: u32, b: u32| if key(a) <= key(b) { ((key(a), key(b)), true) } else { ((key(b), key(a)), false) };
+    for (t, tri) in triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (e, forward) = edge(tri[k], tri[(k + 1) % 3]);
+            edges.entry(e).or_default().push((t, forward));
+        }
+    }
+    let mut paired = vec![false; triangles.len()];
+    let mut lights = Vec::new();
+    for (t, tri) in triangles.iter().enumerate() {
+        if paired[t] {
+            continue;
+        }
+        for k in 0..3 {
+            let (a, b, p) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+            let (e, forward) = edge(a, b);
+            // A neighbour wound the same way crosses the edge the other
+            // way; with normals, either neighbour will do.
+            let Some(&(other, _)) = edges[&e]
+                .iter()
+                .find(|&&(o, o_forward)| o != t && !paired[o] && (normals.is_some() || o_forward != forward))
+            else {
+                continue;
+            };
+            let Some(q) = triangles[other].iter().copied().find(|&i| key(i) != key(a) && key(i) != key(b))
+            else {
+                continue;
+            };
+            let Some((center, mut u, mut v)) = parallelogram(corner(p), corner(a), corner(q), corner(b))
+            else {
+                continue;
+            };
+            if let Some(normals) = normals {
+                let facing: DVec3 = [p, a, q, b].iter().map(|&i| normals[i as usize].as_dvec3()).sum();
+                if facing.dot(u.cross(v)) < 0.0 {
+                    std::mem::swap(&mut u, &mut v);
+                }
+            }
+            paired[t] = true;
+            paired[other] = true;
+            lights.push((center, u, v));
+            break;
+        }
+    }
+    let left = triangles.iter().zip(&paired).filter(|(_, &p)| !p).map(|(t, _)| *t).collect();
+    (lights, left)
+}
+
+/// The parallelogram of corners `p0, p1, p2, p3` in order around it (its
+/// front the side they turn counter-clockwise about), as `(center, u, v)`,
+/// if the diagonals meet at their midpoints within
+/// [`PARALLELOGRAM_TOLERANCE`] and it has an area.
+fn parallelogram(p0: DVec3, p1: DVec3, p2: DVec3, p3: DVec3) -> Option<Parallelogram> {
+    let diagonal = (p2 - p0).length().max((p3 - p1).length());
+    if (p0 + p2 - p1 - p3).length() > PARALLELOGRAM_TOLERANCE * diagonal {
+        return None;
+    }
+    // Each edge the mean of the two opposite ones.
+    let u = 0.5 * ((p1 - p0) + (p2 - p3));
+    let v = 0.5 * ((p3 - p0) + (p2 - p1));
+    let area = u.cross(v).length();
+    (area > 0.0 && area.is_finite()).then_some((0.25 * (p0 + p1 + p2 + p3), u, v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square() -> Vec<Vec3> {
+        vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, -2.0),
+            Vec3::new(0.0, 0.0, -2.0),
+        ]
+    }
+
+    #[test]
+    fn a_quad_split_either_way_is_one_light_facing_its_winding() {
+        for triangles in [[[0, 1, 2], [0, 2, 3]], [[0, 1, 3], [1, 2, 3]]] {
+            let (lights, left) = parallelograms(&square(), None, &triangles);
+            assert!(left.is_empty());
+            let [(center, u, v)] = lights[..] else { panic!("{lights:?}") };
+            assert!((center - DVec3::new(0.5, 0.0, -1.0)).length() < 1e-12);
+            // Counter-clockwise seen from +y: the front faces up.
+            let normal = u.cross(v);
+            assert!((normal - DVec3::new(0.0, 2.0, 0.0)).length() < 1e-12, "{normal}");
+        }
+    }
+
+    #[test]
+    fn faces_given_apart_pair_by_position_and_the_rest_are_left() {
+        // The square's two triangles with corners of their own, a third
+        // triangle beside them, and a kite (not a parallelogram).
+        let mut positions = square();
+        positions.extend(square());
+        positions.extend([Vec3::new(5.0, 0.0, 0.0), Vec3::new(6.0, 0.0, 0.0), Vec3::new(5.0, 0.0, -1.0)]);
+        positions.extend([Vec3::new(8.0, 0.0, 0.0), Vec3::new(9.0, 0.0, -0.5), Vec3::new(8.0, 0.0, -3.0)]);
+        positions.push(Vec3::new(7.5, 0.0, -0.5));
+        let triangles = [[0, 1, 2], [4, 6, 7], [8, 9, 10], [11, 12, 13], [11, 13, 14]];
+        let (lights, left) = parallelograms(&positions, None, &triangles);
+        assert_eq!(lights.len(), 1);
+        assert_eq!(left, vec![[8, 9, 10], [11, 12, 13], [11, 13, 14]]);
+    }
+
+    #[test]
+    fn triangles_wound_against_each_other_make_no_light() {
+        // The second triangle faces down: no one-sided light is both.
+        let (lights, left) = parallelograms(&square(), None, &[[0, 1, 2], [0, 3, 2]]);
+        assert!(lights.is_empty());
+        assert_eq!(left.len(), 2);
+    }
+
+    #[test]
+    fn with_normals_a_light_faces_them_however_its_triangles_wind() {
+        // Wound against each other, or both facing up, under normals
+        // pointing down: one light, facing down.
+        for triangles in [[[0, 1, 2], [0, 3, 2]], [[0, 1, 2], [0, 2, 3]]] {
+            let down = vec![Vec3::NEG_Y; 4];
+            let (lights, left) = parallelograms(&square(), Some(&down), &triangles);
+            assert!(left.is_empty());
+            let [(_, u, v)] = lights[..] else { panic!("{lights:?}") };
+            assert!(u.cross(v).normalize().abs_diff_eq(DVec3::NEG_Y, 1e-12), "{}", u.cross(v));
+        }
+    }
+
+    #[test]
+    fn a_placed_light_keeps_its_radiance_and_its_front() {
+        let light = MeshLight {
+            mesh: "m".into(),
+            center: DVec3::new(0.5, 2.0, -1.0),
+            u: DVec3::new(1.0, 0.0, 0.0),
+            v: DVec3::new(0.0, 0.0, 2.0),
+            radiance: Vec3::new(17.0, 12.0, 4.0),
+        };
+        // u x v = (0, -2, 0): it faces down. Scaled by 3 and mirrored in x,
+        // it still faces down, with nine times the power.
+        let matrix = DMat4::from_scale(DVec3::new(-3.0, 3.0, 3.0));
+        let placed = light.placed(&matrix, DVec3::new(0.0, 1.0, 0.0)).unwrap();
+        let Light::Area { center, u, v, power, .. } = placed else { panic!() };
+        assert_eq!(center, Vec3::new(-1.5, 5.0, -3.0));
+        assert!(u.cross(v).normalize().abs_diff_eq(Vec3::NEG_Y, 1e-6), "{}", u.cross(v));
+        let expected = Vec3::new(17.0, 12.0, 4.0) * std::f32::consts::PI * 18.0;
+        assert!(power.abs_diff_eq(expected, 1e-3), "{power}");
+        // A matrix that flattens it leaves no light.
+        assert!(light.placed(&DMat4::from_scale(DVec3::new(1.0, 1.0, 0.0)), DVec3::ZERO).is_none());
+    }
+}
