@@ -780,6 +780,16 @@ fn emission_that_makes_no_light_is_said() {
     );
     // The lamp's triangle stays a surface.
     assert!(scene.meshes.iter().any(|m| m.name == "b.obj:lamp"));
+
+    // A light brighter than 32-bit floats can carry is refused, as a scene
+    // file's is.
+    let mtl = CORNELL_MTL.replace("Ke 17 12 4", "Ke 1e38 12 4");
+    write(dir.path(), "box.mtl", &format!("{mtl}newmtl wrong\nKe 1 -1 0\n"));
+    let Err(error) = Scene::load(&write(dir.path(), "s.toml", &text)) else {
+        panic!("a light of 1e38 loaded")
+    };
+    assert!(error.to_string().contains("the light of b.obj:light #1 sends"), "{error}");
+    assert!(error.to_string().contains("beyond 1e30 per channel"), "{error}");
 }
 
 /// `caustix info` of a mesh file with lights of its own lists them, and the

@@ -424,6 +424,17 @@ impl Builder<'_> {
             for (i, light) in file_lights.iter().enumerate() {
                 let name = format!("the light of {} #{}", light.mesh, i + 1);
                 match light.placed(&matrix, self.origin) {
+                    // As a scene file's light power is bounded (`values::MAX_POWER`).
+                    Some(placed) if placed.power().max_element() as f64 > super::values::MAX_POWER => {
+                        return Err(Error::input(
+                            obj_path,
+                            format!(
+                                "{name} sends {:e} W (its Ke times pi times its area), beyond 1e30 per channel: \
+                                 the light's arithmetic overflows 32-bit floats; lower its material's Ke",
+                                placed.power().max_element()
+                            ),
+                        ))
+                    }
                     Some(placed) => lights.push(self.within_reach(&name, placed)?),
                     None => obj_warnings.push(format!("{name}: the [[mesh]]'s transform leaves it no area")),
                 }
