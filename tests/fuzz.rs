@@ -170,7 +170,8 @@ proptest! {
     #[test]
     fn obj_files_never_panic(edits in prop::collection::vec(edit(), 1..6)) {
         let dir = tempfile::tempdir().unwrap();
-        let mtl = "newmtl red\nKd 0.8 0.1 0.1\nKs 0.1 0.1 0.1\nNs 20\nillum 2\n";
+        // It emits, so that its faces become lights (`mesh_lights`).
+        let mtl = "newmtl red\nKd 0.8 0.1 0.1\nKs 0.1 0.1 0.1\nNs 20\nillum 2\nKe 1 0.5 0.25\n";
         std::fs::write(dir.path().join("m.mtl"), apply(mtl.as_bytes(), &edits[..1])).unwrap();
         let text = "mtllib m.mtl\no cube\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
                     vn 0 0 1\nusemtl red\nf 1 2 3 4\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3//1 4//1 8//1\nf 4 1 5 8\n";
