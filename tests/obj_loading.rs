@@ -721,6 +721,24 @@ fn faces_that_emit_become_area_lights() {
         assert!(power.abs_diff_eq(4.0 * expected, 4e-3 * expected.max_element()), "{file}: {power}");
     }
 
+    // Declared by hand as well (as caustix asked before it read Ke), a
+    // millimetre below: said, as the light is then there twice. A light
+    // declared elsewhere is not.
+    let twice = format!(
+        "{CORNELL_CAMERA}[[mesh]]\nfile = \"quad.obj\"\n\
+         [[area_light]]\ncenter = [0, 0.01, 0]\nu = [0.2, 0, 0]\nv = [0, 0, -0.2]\npower = 1\n\
+         [[area_light]]\ncenter = [0, 1.979, 0]\nu = [0.5, 0, 0]\nv = [0, 0, 0.4]\npower = 10\n"
+    );
+    let scene = Scene::load(&write(dir.path(), "s.toml", &twice)).unwrap();
+    assert_eq!(scene.lights.len(), 3);
+    assert_eq!(scene.warnings.len(), 1, "{:#?}", scene.warnings);
+    assert!(
+        scene.warnings[0]
+            .contains("the light of quad.obj:light #1 lies where the scene file's [[area_light]] #2 does"),
+        "{:#?}",
+        scene.warnings
+    );
+
     // The render: the walls with the light declared where the quad was.
     let from_file = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"quad.obj\"\n");
     let power = radiance * std::f32::consts::PI * width * depth;

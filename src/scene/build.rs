@@ -386,6 +386,8 @@ impl Builder<'_> {
         // read once.
         let mut files = Reused::new(entries.iter());
         let mut obj_warnings = Vec::new();
+        // The lights the files' emitting faces make, by name.
+        let mut from_meshes = Vec::new();
         for (m, entry) in f.mesh.iter().zip(&entries) {
             let (obj_path, choice) = entry;
             let file_meshes = files.take(entry, || {
@@ -435,12 +437,13 @@ impl Builder<'_> {
                             ),
                         ))
                     }
-                    Some(placed) => lights.push(self.within_reach(&name, placed)?),
+                    Some(placed) => from_meshes.push((name.clone(), self.within_reach(&name, placed)?)),
                     None => obj_warnings.push(format!("{name}: the [[mesh]]'s transform leaves it no area")),
                 }
             }
         }
-
+        obj_warnings.extend(super::mesh_lights::twice_in_one_place(lights, &from_meshes));
+        lights.extend(from_meshes.into_iter().map(|(_, light)| light));
         Ok(obj_warnings)
     }
 

@@ -54,6 +54,41 @@ impl MeshLight {
     }
 }
 
+/// Where a light a mesh file makes lies on an area light the scene file
+/// declares, facing the same way: the scene would have that light twice
+/// (as it would after declaring a mesh's light by hand, as caustix asked
+/// before it read `Ke`). `declared` are the scene file's lights in order;
+/// returns a warning for each such pair.
+pub fn twice_in_one_place(declared: &[Light], from_meshes: &[(String, Light)]) -> Vec<String> {
+    let area = |light: &Light| match *light {
+        Light::Area { center, u, v, .. } => Some((center.as_dvec3(), u.as_dvec3(), v.as_dvec3())),
+        _ => None,
+    };
+    let mut warnings = Vec::new();
+    for (name, light) in from_meshes {
+        let Some((c, u, v)) = area(light) else { continue };
+        let normal = u.cross(v).normalize();
+        let size = u.length().max(v.length());
+        let areas = declared.iter().filter_map(area);
+        for (k, (c2, u2, v2)) in areas.enumerate() {
+            // The same way, within a twentieth of its size of its plane, and
+            // its centre within its half-size: one light, given twice.
+            let same_way = u2.cross(v2).normalize().dot(normal) > 0.99;
+            let near =
+                (c2 - c).dot(normal).abs() < 0.05 * size && (c2 - c).length() < 0.5 * size.max(u2.length());
+            if same_way && near {
+                warnings.push(format!(
+                    "{name} lies where the scene file's [[area_light]] #{} does, facing the same way: the \
+                     scene has that light twice (a mesh file's Ke makes its own lights); leave out the \
+                     [[area_light]]",
+                    k + 1
+                ));
+            }
+        }
+    }
+    warnings
+}
+
 /// A parallelogram as its centre and full edge vectors `u` and `v`, its
 /// front the side `u x v` faces.
 pub type Parallelogram = (DVec3, DVec3, DVec3);
