@@ -6,8 +6,9 @@
 //!
 //! An area light is one-sided and blocks rays on both sides (its back is
 //! black), so the faces that become lights leave the mesh; the side a
-//! light faces is its faces' own, by their winding in the file (as
-//! Mitsuba and pbrt read an emitting mesh). Emitting faces that pair into
+//! light faces is its faces' own: that of the file's vertex normals where
+//! it gives them, else of their winding in the file (as Mitsuba and pbrt
+//! read an emitting mesh; see [`parallelograms`]). Emitting faces that pair into
 //! no parallelogram stay surfaces that do not emit: caustix's area lights
 //! are parallelograms, and the loader says how many were left so.
 
@@ -118,7 +119,8 @@ pub fn parallelograms(
     triangles: &[[u32; 3]],
 ) -> (Vec<Parallelogram>, Vec<[u32; 3]>) {
     let corner = |i: u32| positions[i as usize].as_dvec3();
-    let key = |i: u32| positions[i as usize].to_array().map(f32::to_bits);
+    // (`+ 0.0` makes a corner written as -0 the same as one written as 0.)
+    let key = |i: u32| positions[i as usize].to_array().map(|x| (x + 0.0).to_bits());
     // Each edge (by its corners' positions, the smaller first) and the
     // triangles it bounds, in order, with whether it goes smaller first in
     // that triangle's winding.
@@ -227,6 +229,14 @@ mod tests {
         let (lights, left) = parallelograms(&positions, None, &triangles);
         assert_eq!(lights.len(), 1);
         assert_eq!(left, vec![[8, 9, 10], [11, 12, 13], [11, 13, 14]]);
+    }
+
+    #[test]
+    fn a_corner_written_as_minus_zero_is_the_corner_written_as_zero() {
+        let mut positions = square();
+        positions.push(Vec3::new(-0.0, 0.0, -0.0));
+        let (lights, left) = parallelograms(&positions, None, &[[0, 1, 2], [4, 2, 3]]);
+        assert_eq!((lights.len(), left.len()), (1, 0));
     }
 
     #[test]
