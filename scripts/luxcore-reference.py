@@ -266,5 +266,6 @@ def render(pyluxcore, args, config, lines):
     session.GetFilm().SaveOutputs()
     return passes, seconds
 
+
 if __name__ == "__main__":
     main()

@@ -193,7 +193,10 @@ def main():
             break
     seconds = time.time() - start
     mi.Bitmap((total / spp).astype(np.float32)).write(args.output)
-    print(f"{args.output}: {spp} spp in {seconds:.1f} s with Mitsuba {mi.__version__} ({args.variant}, {args.integrator}, max_depth {description['integrator']['max_depth']})")
+    print(
+        f"{args.output}: {spp} spp in {seconds:.1f} s with Mitsuba {mi.__version__} "
+        f"({args.variant}, {args.integrator}, max_depth {description['integrator']['max_depth']})"
+    )
 
 
 if __name__ == "__main__":
