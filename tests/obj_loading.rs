@@ -77,7 +77,10 @@ fn mtl_features_not_read_are_warned_about_once_per_kind() {
     assert_eq!(scene.warnings.len(), 3, "{:#?}", scene.warnings);
     assert_eq!(warned("room.obj: 3 of its 4 materials use texture maps (`wood0`: map_Kd `wood0.png`)"), 1);
     // The lamp's one triangle makes no area light (a parallelogram).
-    assert_eq!(warned("room.obj: 1 triangle of materials that emit light (Ke, as `lamp` does) make no"), 1);
+    assert_eq!(
+        warned("room.obj: 1 object is of materials that emit light (Ke) but not made of parallelograms"),
+        1
+    );
     assert_eq!(warned("were left out: Pr, norm ("), 1, "{:#?}", scene.warnings);
     // The flat colours are what renders.
     let wood = scene.meshes.iter().find(|m| m.name == "room.obj:wood1").unwrap();
@@ -768,14 +771,17 @@ fn faces_that_emit_become_area_lights() {
     assert!(brightest(&a) > 0.5 * radiance.x, "{}", brightest(&a));
 }
 
-/// Emitting faces that make no parallelogram, and an emission that is no
-/// colour, are said: they do not emit.
+/// An emitting object not wholly made of parallelograms, and an emission
+/// that is no colour, are said: they do not emit (not even the object's
+/// parallelograms: a few quads of a curved lamp lit would be a patchwork).
 #[test]
 fn emission_that_makes_no_light_is_said() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "box.mtl", &format!("{CORNELL_MTL}newmtl wrong\nKe 1 -1 0\n"));
-    // A triangle of the light's material, and one of the wrong one.
-    let extra = "o lamp\nv 0 1.9 0\nv 0.1 1.9 0\nv 0 1.9 0.1\nusemtl light\nf -3 -1 -2\n\
+    // A lamp of the light's material, a square and a triangle beside it,
+    // and a triangle of the wrong one.
+    let extra = "o lamp\nv 0 1.9 0\nv 0.1 1.9 0\nv 0.1 1.9 0.1\nv 0 1.9 0.1\nv 0.2 1.9 0\n\
+                 usemtl light\nf -5 -2 -3 -4\nf -4 -3 -1\n\
                  o odd\nv 0 1 0\nv 0.1 1 0\nv 0 1 0.1\nusemtl wrong\nf -3 -1 -2\n";
     write(dir.path(), "b.obj", &format!("{CORNELL_WALLS}{CORNELL_LIGHT_QUAD}{extra}"));
     let text = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"b.obj\"\n");
@@ -784,7 +790,8 @@ fn emission_that_makes_no_light_is_said() {
     assert_eq!(scene.warnings.len(), 2, "{:#?}", scene.warnings);
     assert!(
         scene.warnings.iter().any(|w| w.contains(
-            "b.obj: 1 triangle of materials that emit light (Ke, as `light` does) make no parallelogram"
+            "b.obj: 1 object is of materials that emit light (Ke) but not made of parallelograms, which caustix's \
+             area lights are (`lamp`, of `light`: 1 of its 3 triangles make none with a neighbour)"
         )),
         "{:#?}",
         scene.warnings
@@ -796,8 +803,9 @@ fn emission_that_makes_no_light_is_said() {
         "{:#?}",
         scene.warnings
     );
-    // The lamp's triangle stays a surface.
-    assert!(scene.meshes.iter().any(|m| m.name == "b.obj:lamp"));
+    // The lamp stays a surface, whole.
+    let lamp = scene.meshes.iter().find(|m| m.name == "b.obj:lamp").expect("the lamp");
+    assert_eq!(lamp.indices.len(), 3);
 
     // A light brighter than 32-bit floats can carry is refused, as a scene
     // file's is.

@@ -249,7 +249,9 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
     if !contents.lights.is_empty() {
         let n = contents.lights.len();
         outln!("# lights    {n} area light{}, from faces that emit (Ke)", if n == 1 { "" } else { "s" });
-        for l in &contents.lights {
+        // (A file may make hundreds.)
+        const LISTED: usize = 8;
+        for l in contents.lights.iter().take(LISTED) {
             outln!(
                 "#   light   {:<24} centre {}, {} x {}, radiance {}",
                 l.mesh,
@@ -258,6 +260,9 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
                 l.v.length() as f32,
                 l.radiance
             );
+        }
+        if n > LISTED {
+            outln!("#   and {} more", n - LISTED);
         }
     }
     // Which key the [[mesh]] needs, if any.

@@ -8,9 +8,10 @@
 //! black), so the faces that become lights leave the mesh; the side a
 //! light faces is its faces' own: that of the file's vertex normals where
 //! it gives them, else of their winding in the file (as Mitsuba and pbrt
-//! read an emitting mesh; see [`parallelograms`]). Emitting faces that pair into
-//! no parallelogram stay surfaces that do not emit: caustix's area lights
-//! are parallelograms, and the loader says how many were left so.
+//! read an emitting mesh; see [`parallelograms`]). An emitting object whose
+//! faces do not all pair into parallelograms stays a surface that does not
+//! emit, whole (caustix's area lights are parallelograms, and a few quads
+//! of a curved lamp lit would be a patchwork), and the loader says so.
 
 use std::collections::HashMap;
 

@@ -143,8 +143,8 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
     }
     let mut objects = Vec::with_capacity(models.len());
     let mut lights = Vec::new();
-    // Emitting faces that made no light, and a material of theirs.
-    let (mut dark_faces, mut dark_material) = (0, None);
+    // Emitting objects that made no lights, and the first of them.
+    let (mut dark_objects, mut dark_first) = (0, None);
     let mut enclosed = 0.0;
     let mut defaulted = Vec::new();
     let mut concave = Concave::default();
@@ -193,20 +193,21 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         if let Some((radiance, id)) = emits {
             // In the file's winding, before `winding::orient` may turn it.
             let (found, left) = mesh_lights::parallelograms(&positions, normals.as_deref(), &indices);
-            lights.extend(found.into_iter().map(|(center, u, v)| MeshLight {
-                mesh: name.clone(),
-                center,
-                u,
-                v,
-                radiance,
-            }));
             if left.is_empty() {
-                // All of it became lights.
+                // All of it became lights. An object that does not wholly
+                // (a lamp's curved shade) stays a surface: a few of its
+                // quads lit would be a patchwork, not its light.
+                lights.extend(found.into_iter().map(|(center, u, v)| MeshLight {
+                    mesh: name.clone(),
+                    center,
+                    u,
+                    v,
+                    radiance,
+                }));
                 continue;
             }
-            dark_faces += left.len();
-            dark_material.get_or_insert(mtl_names[id].clone());
-            indices = left;
+            dark_objects += 1;
+            dark_first.get_or_insert((model.name.clone(), mtl_names[id].clone(), left.len(), indices.len()));
         }
         let normals = FileNormals::of(normals, &positions);
         let turned = winding::orient(&positions, &mut indices, normals.for_winding(), glass);
@@ -249,13 +250,14 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         warnings.extend(mesh::no_area_warning(&who, faces, mesh.indices.len()));
         meshes.push(mesh);
     }
-    if let Some(name) = dark_material {
-        let triangles =
-            if dark_faces == 1 { "1 triangle".to_string() } else { format!("{dark_faces} triangles") };
+    if let Some((object, material, left, all)) = dark_first {
+        let objects =
+            if dark_objects == 1 { "1 object is".to_string() } else { format!("{dark_objects} objects are") };
         warnings.push(format!(
-            "{file_name}: {triangles} of materials that emit light (Ke, as `{name}` does) make no parallelogram \
-             with a neighbour, and caustix's area lights are parallelograms: left as surfaces that do not emit \
-             (declare such lights in the scene file: `[[area_light]]`, README)"
+            "{file_name}: {objects} of materials that emit light (Ke) but not made of parallelograms, which \
+             caustix's area lights are (`{object}`, of `{material}`: {left} of its {all} triangles make none \
+             with a neighbour): left as surfaces that do not emit (declare such lights in the scene file: \
+             `[[area_light]]`, README)"
         ));
     }
     warnings.extend(concave.warning().map(|w| format!("{file_name}: {w}")));
