@@ -231,12 +231,15 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
     let meshes = &contents.meshes;
     let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
     let vertices: usize = meshes.iter().map(|m| m.positions.len()).sum();
-    let mut b = meshes.iter().fold(caustix::bounds::Bounds::EMPTY, |b, m| b.union(m.bounds()));
-    for light in &contents.lights {
-        for (i, j) in [(-0.5, -0.5), (-0.5, 0.5), (0.5, -0.5), (0.5, 0.5)] {
-            b = b.grow((light.center + i * light.u + j * light.v).as_vec3());
-        }
-    }
+    // The lights where a [[mesh]] without a transform puts them, in the
+    // file's coordinates: as a scene's lights, to frame and describe.
+    let lights: Vec<(&str, caustix::light::Light)> = contents
+        .lights
+        .iter()
+        .filter_map(|l| Some((l.mesh.as_str(), l.placed(&glam::DMat4::IDENTITY, glam::DVec3::ZERO)?)))
+        .collect();
+    let b = meshes.iter().fold(caustix::bounds::Bounds::EMPTY, |b, m| b.union(m.bounds()));
+    let b = lights.iter().fold(b, |b, (_, light)| b.union(light.bounds()));
     // Every line a TOML comment but the scene's: `caustix info bunny.obj >
     // bunny.toml` is a scene to render as it is.
     outln!("# mesh      {} (loaded in {:.2} s)", path.display(), start.elapsed().as_secs_f64());
@@ -246,20 +249,13 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
     for m in meshes {
         outln!("#   mesh    {:<24} {:>9} triangles", m.name, m.indices.len());
     }
-    if !contents.lights.is_empty() {
-        let n = contents.lights.len();
+    if !lights.is_empty() {
+        let n = lights.len();
         outln!("# lights    {n} area light{}, from faces that emit (Ke)", if n == 1 { "" } else { "s" });
         // (A file may make hundreds.)
         const LISTED: usize = 8;
-        for l in contents.lights.iter().take(LISTED) {
-            outln!(
-                "#   light   {:<24} centre {}, {} x {}, radiance {}",
-                l.mesh,
-                l.center.as_vec3(),
-                l.u.length() as f32,
-                l.v.length() as f32,
-                l.radiance
-            );
+        for (mesh, light) in lights.iter().take(LISTED) {
+            outln!("#   light   {mesh:<24} {}", light.describe(glam::DVec3::ZERO));
         }
         if n > LISTED {
             outln!("#   and {} more", n - LISTED);
@@ -287,7 +283,7 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
     let name =
         path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
     outln!("#\n# A scene that frames it, to save beside {name} as a .toml file and render.\n");
-    out!("{}", framing_scene(b, &name, needs, contents.lights.is_empty()));
+    out!("{}", framing_scene(b, &name, needs, lights.is_empty()));
     Ok(())
 }
 
