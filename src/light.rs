@@ -67,13 +67,43 @@ pub struct AreaFace {
     /// Bound on each coordinate's rounding error of a point on the light
     /// (`center + a u + b v` in `f32`, with a margin).
     rounding: Vec3,
+    /// The whole parallelogram, or the half of it towards `center - u/2 - v/2`.
+    shape: Shape,
 }
 
 impl AreaFace {
-    /// The squared distance from the centre to the farthest corner.
+    /// The squared distance from the centre to the farthest corner (of
+    /// the parallelogram: a triangle's corners are three of its four).
     fn half_diagonal2(&self) -> f64 {
         0.25 * (self.length2.0 + self.length2.1 + 2.0 * self.skew.abs())
     }
+
+    /// Whether the point `center + a u + b v` lies on the panel.
+    fn holds(&self, a: f64, b: f64) -> bool {
+        let inside = |x: f64| x.abs() <= 0.5;
+        inside(a) && inside(b) && (self.shape == Shape::Parallelogram || a + b <= 0.0)
+    }
+}
+
+/// The shape of an area light's panel, over its centre and edges `u` and `v`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shape {
+    /// Corners at `center +- u/2 +- v/2`.
+    Parallelogram,
+    /// Corners at `c = center - u/2 - v/2`, `c + u` and `c + v`: the half
+    /// of the parallelogram on that side of its diagonal (so `center` is
+    /// the midpoint of the edge opposite `c`). Mesh files' emitting faces
+    /// that pair into no parallelogram (a curved lamp's) are these.
+    Triangle,
+}
+
+/// The point of a panel of `shape` that the uniform pair `s` picks, as
+/// `(a, b)` in units of its edges from its centre: uniform over its area.
+/// A triangle folds the square's far half onto its own (`1 - s`), which
+/// keeps the density uniform and nearby pairs near each other.
+fn panel_point(shape: Shape, s: Vec2) -> Vec2 {
+    let s = if shape == Shape::Triangle && s.x + s.y > 1.0 { Vec2::ONE - s } else { s };
+    s - Vec2::splat(0.5)
 }
 
 /// A light source.
@@ -86,10 +116,12 @@ pub enum Light {
         /// Total emitted power (W per channel).
         power: Vec3,
     },
-    /// A one-sided emitting parallelogram, Lambertian (cosine) emission from
-    /// the side `u x v` faces.
+    /// A one-sided emitting panel (a parallelogram, or a triangle: its
+    /// face's [`Shape`]), Lambertian (cosine) emission from the side `u x v`
+    /// faces.
     Area {
-        /// Centre of the parallelogram.
+        /// Centre of the parallelogram (of a triangle, its midpoint of the
+        /// edge from `c + u` to `c + v`: [`Shape::Triangle`]).
         center: Vec3,
         /// First full edge vector.
         u: Vec3,
@@ -119,7 +151,20 @@ impl Light {
     /// The one-sided parallelogram light centred at `center` with full
     /// edges `u` and `v`, emitting `power` from the side `u x v` faces.
     pub fn area(center: Vec3, u: Vec3, v: Vec3, power: Vec3) -> Light {
-        let area = numeric::cross_length(u, v);
+        Light::panel(Shape::Parallelogram, center, u, v, power)
+    }
+
+    /// The one-sided triangle light of corners `a`, `b`, `c`, emitting
+    /// `power` from the side they turn counter-clockwise about.
+    pub fn triangle(a: Vec3, b: Vec3, c: Vec3, power: Vec3) -> Light {
+        Light::panel(Shape::Triangle, 0.5 * (b + c), b - a, c - a, power)
+    }
+
+    /// The one-sided panel light of `shape` over `center` and full edges
+    /// `u` and `v` ([`Shape`]), emitting `power` from the side `u x v` faces.
+    pub fn panel(shape: Shape, center: Vec3, u: Vec3, v: Vec3, power: Vec3) -> Light {
+        let whole = numeric::cross_length(u, v);
+        let area = if shape == Shape::Triangle { 0.5 * whole } else { whole };
         let mut face = AreaFace {
             normal: numeric::unit_cross(u, v).unwrap_or(Vec3::ZERO),
             area,
@@ -128,6 +173,7 @@ impl Light {
             radiance: (power.as_dvec3() / (std::f64::consts::PI * area)).as_vec3(),
             reach2: f32::INFINITY,
             rounding: 32.0 * f32::EPSILON * (center.abs() + (0.5 * u).abs() + (0.5 * v).abs()),
+            shape,
         };
         // A thousandth over: far beyond the rounding of a point's squared
         // distance in `f32` (a few ulps), kept where those are normal floats.
@@ -165,7 +211,8 @@ impl Light {
             Light::Area { center, u: eu, v: ev, power, face } => {
                 // Uniform over the area (pdf 1/A) of a Lambertian emitter with
                 // radiance L = power / (pi A): E = L cos_l A / d^2 = power cos_l / (pi d^2).
-                let position = center + (u.x - 0.5) * eu + (u.y - 0.5) * ev;
+                let at = panel_point(face.shape, u);
+                let position = center + at.x * eu + at.y * ev;
                 let normal = face.normal;
                 let to_p = (p - position).as_dvec3();
                 let d2 = to_p.length_squared();
@@ -219,15 +266,15 @@ impl Light {
         // each edge alone would find another shape than the one sampled.
         let local = local.as_dvec3();
         let ((uu, vv), uv) = (face.length2, face.skew);
-        let inside = |x: f64| x.abs() <= 0.5;
         let (lu, lv) = (local.dot(u.as_dvec3()), || local.dot(v.as_dvec3()));
         let crossed = if uv == 0.0 {
             // A rectangle (most lights): each edge alone, and most rays
             // that miss it miss on the first.
-            inside(lu / uu) && inside(lv() / vv)
+            let a = lu / uu;
+            a.abs() <= 0.5 && face.holds(a, lv() / vv)
         } else {
             let (lv, det) = (lv(), uu * vv - uv * uv);
-            inside((vv * lu - uv * lv) / det) && inside((uu * lv - uv * lu) / det)
+            face.holds((vv * lu - uv * lv) / det, (uu * lv - uv * lu) / det)
         };
         let side = if facing < 0.0 { Side::Front } else { Side::Back };
         crossed.then_some((t, side))
@@ -245,7 +292,8 @@ impl Light {
         match *self {
             Light::Point { position, power } => (Ray::new(position, uniform_sphere(v)), power),
             Light::Area { center, u: eu, v: ev, power, face } => {
-                let on = center + (u.x - 0.5) * eu + (u.y - 0.5) * ev;
+                let at = panel_point(face.shape, u);
+                let on = center + at.x * eu + at.y * ev;
                 let normal = face.normal;
                 let dir = around(normal, cosine_hemisphere(v));
                 // Leave from just in front of the light, by more than the
@@ -324,14 +372,26 @@ impl Light {
         }
     }
 
-    /// The box around the light: its point, or its panel's four corners.
+    /// The box around the light: its point, or its panel's corners.
     pub fn bounds(&self) -> Bounds {
         match *self {
             Light::Point { position, .. } | Light::Spot { position, .. } => Bounds::of(&[position]),
-            Light::Area { center, u, v, .. } => {
+            Light::Area { center, u, v, face, .. } => {
                 let (hu, hv) = (0.5 * u, 0.5 * v);
-                Bounds::of(&[center - hu - hv, center + hu - hv, center + hu + hv, center - hu + hv])
+                let corners = [center - hu - hv, center + hu - hv, center - hu + hv, center + hu + hv];
+                match face.shape {
+                    Shape::Parallelogram => Bounds::of(&corners),
+                    Shape::Triangle => Bounds::of(&corners[..3]),
+                }
             }
+        }
+    }
+
+    /// An area light's shape ([`Shape`]); `None` for lights with no surface.
+    pub fn shape(&self) -> Option<Shape> {
+        match self {
+            Light::Area { face, .. } => Some(face.shape),
+            _ => None,
         }
     }
 
@@ -387,6 +447,16 @@ impl Light {
         let at = |p: Vec3| (p.as_dvec3() + origin).as_vec3();
         match self {
             Light::Point { position, .. } => format!("point at {}, power {w} W", at(*position)),
+            Light::Area { center, u, v, face, .. } if face.shape == Shape::Triangle => {
+                let corner = *center - 0.5 * (*u + *v);
+                format!(
+                    "triangle at {}, {}, {}, facing {}, power {w} W",
+                    at(corner),
+                    at(corner + *u),
+                    at(corner + *v),
+                    face.normal
+                )
+            }
             Light::Area { center, u, v, face, .. } => format!(
                 "area {:.3} x {:.3} at {}, facing {}, power {w} W",
                 u.length(),
@@ -493,6 +563,8 @@ mod tests {
                 power: Vec3::splat(3.0),
             },
             Light::area(Vec3::ONE, Vec3::X * 0.5, Vec3::Z * 2.0, Vec3::splat(5.0)),
+            // Half of a parallelogram of area 2.
+            Light::triangle(Vec3::ONE, Vec3::ONE + Vec3::X, Vec3::ONE + Vec3::Z * 2.0, Vec3::splat(5.0)),
         ];
         let mut rng = Rng::new(4, 0);
         for light in &lights {
@@ -568,6 +640,7 @@ mod tests {
             },
             // An area light whose u x v underflows in f32 (it used to give NaN).
             Light::area(Vec3::Y, Vec3::X, Vec3::Z * 1e-25, Vec3::splat(7.0)),
+            Light::triangle(Vec3::Y, Vec3::Y + Vec3::X, Vec3::Y + Vec3::Z, Vec3::splat(7.0)),
         ];
         for light in lights {
             let mut rng = Rng::new(9, 9);
@@ -641,5 +714,81 @@ mod tests {
         for (a, b) in [(0.52, 0.48), (0.48, 0.52), (-0.52, -0.48), (-0.48, -0.52), (0.0, 0.51)] {
             assert!(light.crossing(&towards(a, b)).is_none(), "outside at ({a}, {b})");
         }
+    }
+
+    /// A square light cut along its diagonal into two triangle lights of
+    /// half its power each lights a point as the square does (the form
+    /// factor), and each triangle half as much as its half of the square
+    /// would by symmetry; each triangle's samples lie on it.
+    #[test]
+    fn two_triangles_light_as_the_square_they_make() {
+        let (w, d) = (1.0f32, 0.8f32);
+        let corners = [
+            Vec3::new(-0.5, d, -0.5),
+            Vec3::new(0.5, d, -0.5),
+            Vec3::new(0.5, d, 0.5),
+            Vec3::new(-0.5, d, 0.5),
+        ];
+        // Wound counter-clockwise seen from below: both face down.
+        let halves = [
+            Light::triangle(corners[0], corners[1], corners[2], Vec3::splat(5.0)),
+            Light::triangle(corners[2], corners[3], corners[0], Vec3::splat(5.0)),
+        ];
+        let radiance = 10.0 / (PI * w * w);
+        let analytic = PI * radiance * 4.0 * corner_form_factor(w / 2.0, w / 2.0, d);
+        let n = 64 * 64;
+        let mut total = 0.0;
+        for (k, light) in halves.iter().enumerate() {
+            assert_eq!(light.shape(), Some(Shape::Triangle));
+            assert!(light.facing().abs_diff_eq(-Vec3::Y, 1e-6), "{}", light.facing());
+            assert!((light.front_radiance().x - radiance).abs() < 1e-4 * radiance);
+            let mut rng = Rng::new(k as u64, 0);
+            let mut estimate = 0.0;
+            for i in 0..n {
+                let s = light.sample_incident(Vec3::ZERO, stratified(i, n, &mut rng)).unwrap();
+                // On its own half: x + z <= 0 for the first, >= 0 for the second.
+                let side = if k == 0 { 1.0 } else { -1.0 };
+                assert!(side * (s.position.x - s.position.z) >= -1e-6, "{k}: {}", s.position);
+                assert!(s.position.x.abs() <= 0.5 && s.position.z.abs() <= 0.5, "{k}: {}", s.position);
+                estimate += s.irradiance.x * s.position.normalize().y / n as f32;
+            }
+            assert!((2.0 * estimate / analytic - 1.0).abs() < 2e-3, "{k}: {estimate} vs half of {analytic}");
+            total += estimate;
+        }
+        assert!((total / analytic - 1.0).abs() < 1e-3, "{total} vs {analytic}");
+    }
+
+    /// Rays see a triangle light where it samples and emits from, and not
+    /// across its long edge, where the parallelogram of its edges goes on.
+    #[test]
+    fn rays_see_a_triangle_light_where_its_samples_lie() {
+        let (a, b, c) = (Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.2), Vec3::new(0.3, 1.0, 0.9));
+        let light = Light::triangle(a, b, c, Vec3::ONE);
+        let bounds = light.bounds();
+        // (Its corner is made again from the centre and edges: within rounding.)
+        assert!(bounds.min.abs_diff_eq(Vec3::new(0.0, 1.0, 0.0), 1e-6), "{bounds:?}");
+        assert!(bounds.max.abs_diff_eq(Vec3::new(1.0, 1.0, 0.9), 1e-6), "{bounds:?}");
+        // b - a = (1, 0, 0.2), c - a = (0.3, 0, 0.9): u x v faces -y.
+        assert!(light.facing().y < -0.99);
+        let eye = Vec3::new(0.4, 0.0, 0.3);
+        let through = |p: Vec3| Ray { t_max: 2.0, ..Ray::new(eye, p - eye) };
+        let mut rng = Rng::new(6, 0);
+        for i in 0..1024 {
+            let s = light.sample_incident(eye, stratified(i, 1024, &mut rng)).unwrap();
+            assert!(light.crossing(&through(s.position)).is_some(), "{:?}", s.position);
+            let (ray, _) = light.emit(rng.uniform2(), rng.uniform2());
+            let back = Ray { t_max: 2.0, ..Ray::new(ray.origin + Vec3::Y * 0.5, -Vec3::Y) };
+            assert!(light.crossing(&back).is_some(), "emitted from {}", ray.origin);
+        }
+        let at = |x: f32, y: f32| a + x * (b - a) + y * (c - a);
+        for (x, y) in [(0.02, 0.02), (0.97, 0.02), (0.02, 0.97), (0.49, 0.49), (0.3, 0.3)] {
+            assert!(light.crossing(&through(at(x, y))).is_some(), "inside at ({x}, {y})");
+        }
+        for (x, y) in [(0.51, 0.51), (0.9, 0.9), (0.2, 0.82), (-0.02, 0.5), (0.5, -0.02)] {
+            assert!(light.crossing(&through(at(x, y))).is_none(), "outside at ({x}, {y})");
+        }
+        assert!(light
+            .describe(glam::DVec3::ZERO)
+            .starts_with("triangle at [0, 1, 0], [1, 1, 0.2], [0.3, 1, 0.9]"));
     }
 }

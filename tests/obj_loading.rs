@@ -57,8 +57,8 @@ fn mtl_materials_map_onto_ours() {
     assert!(scene.warnings[1].contains("object `water`: 1 of its 1 glass triangles have an edge"));
 }
 
-/// What an MTL file asks for that is not read (texture maps, emission,
-/// statements tobj does not know) is said once per kind, naming the file and
+/// What an MTL file asks for that is not read (texture maps, statements
+/// tobj does not know) is said once per kind, naming the file and
 /// a material; statements that only restate the defaults are not; and
 /// nothing is said when the scene gives the mesh its own material.
 #[test]
@@ -74,13 +74,10 @@ fn mtl_features_not_read_are_warned_about_once_per_kind() {
     let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"room.obj\"\n");
     let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
     let warned = |says: &str| scene.warnings.iter().filter(|w| w.contains(says)).count();
-    assert_eq!(scene.warnings.len(), 3, "{:#?}", scene.warnings);
+    assert_eq!(scene.warnings.len(), 2, "{:#?}", scene.warnings);
     assert_eq!(warned("room.obj: 3 of its 4 materials use texture maps (`wood0`: map_Kd `wood0.png`)"), 1);
-    // The lamp's one triangle makes no area light (a parallelogram).
-    assert_eq!(
-        warned("room.obj: 1 object is of materials that emit light (Ke) but not made of parallelograms"),
-        1
-    );
+    // The lamp's one triangle is a light.
+    assert_eq!(scene.lights.iter().filter(|l| l.shape() == Some(caustix::light::Shape::Triangle)).count(), 1);
     assert_eq!(warned("were left out: Pr, norm ("), 1, "{:#?}", scene.warnings);
     // The flat colours are what renders.
     let wood = scene.meshes.iter().find(|m| m.name == "room.obj:wood1").unwrap();
@@ -673,8 +670,47 @@ const CORNELL_LIGHT_QUAD: &str = "o light\nv -0.24 1.98 0.16\nv -0.24 1.98 -0.22
     v 0.23 1.98 0.16\nusemtl light\nf -4 -3 -2 -1\n";
 const CORNELL_LIGHT_TRIANGLES: &str = "o light\nv -0.24 1.98 0.16\nv -0.24 1.98 -0.22\nv 0.23 1.98 -0.22\n\
     v -0.24 1.98 0.16\nv 0.23 1.98 -0.22\nv 0.23 1.98 0.16\nusemtl light\nf 21 22 23\nf 24 25 26\n";
+/// The light as four triangles meeting at its centre, none pairing into a
+/// parallelogram, wound to face down.
+const CORNELL_LIGHT_FAN: &str = "o light\nv -0.24 1.98 0.16\nv -0.24 1.98 -0.22\nv 0.23 1.98 -0.22\n\
+    v 0.23 1.98 0.16\nv -0.005 1.98 -0.03\nusemtl light\nf 25 21 22\nf 25 22 23\nf 25 23 24\nf 25 24 21\n";
 const CORNELL_CAMERA: &str = "[camera]\neye = [0, 1, 3.9]\nlook_at = [0, 1, 0]\nfov = 33\n\
     [image]\nwidth = 24\nheight = 24\n";
+
+/// The walls of the Cornell box with its light declared as an
+/// `[[area_light]]` of `power`, where the light's quad lies.
+fn walls_under_a_declared_light(power: Vec3) -> String {
+    format!(
+        "{CORNELL_CAMERA}[[mesh]]\nfile = \"walls.obj\"\n\
+         [[area_light]]\ncenter = [-0.005, 1.98, -0.03]\nu = [0.47, 0, 0]\nv = [0, 0, 0.38]\n\
+         power = [{}, {}, {}]\n",
+        power.x, power.y, power.z
+    )
+}
+
+/// Path traced (in `dir`, 64 samples a pixel), the scene text `from_file`
+/// renders as `declared` does: the image's sum within 1%, and the light
+/// seen directly (red radiance `red`) in the same pixels.
+fn renders_as(dir: &std::path::Path, from_file: &str, declared: &str, red: f32) {
+    let image = |text: &str| {
+        let scene = Scene::load(&write(dir, "r.toml", text)).unwrap();
+        let accel = caustix::accel::build(caustix::accel::Backend::Embree, &scene.triangle_views()).unwrap();
+        let config = caustix::RenderConfig {
+            integrator: "path".parse().unwrap(),
+            samples: 64,
+            ..scene.config.clone()
+        };
+        caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap().film.beauty()
+    };
+    let (a, b) = (image(from_file), image(declared));
+    let sum = |img: &caustix::film::Image| img.pixels.iter().map(|p| p.element_sum()).sum::<f32>();
+    let ratio = sum(&a) / sum(&b);
+    assert!((ratio - 1.0).abs() < 0.01, "image from the file's light / declared light: {ratio}");
+    // The light itself is seen at its radiance, in the top centre's pixels.
+    let lit = |img: &caustix::film::Image| img.pixels.iter().filter(|p| p.x > 0.5 * red).count();
+    assert!(lit(&a) > 0, "the light is not seen");
+    assert_eq!(lit(&a), lit(&b));
+}
 
 /// The area light a scene holds, as (centre in the file, u x v, power).
 fn only_area_light(scene: &Scene) -> (Vec3, Vec3, Vec3) {
@@ -745,37 +781,58 @@ fn faces_that_emit_become_area_lights() {
     // The render: the walls with the light declared where the quad was.
     let from_file = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"quad.obj\"\n");
     let power = radiance * std::f32::consts::PI * width * depth;
-    let declared = format!(
-        "{CORNELL_CAMERA}[[mesh]]\nfile = \"walls.obj\"\n\
-         [[area_light]]\ncenter = [-0.005, 1.98, -0.03]\nu = [0.47, 0, 0]\nv = [0, 0, 0.38]\n\
-         power = [{}, {}, {}]\n",
-        power.x, power.y, power.z
-    );
-    let image = |text: &str| {
-        let scene = Scene::load(&write(dir.path(), "r.toml", text)).unwrap();
-        let accel = caustix::accel::build(caustix::accel::Backend::Embree, &scene.triangle_views()).unwrap();
-        let config = caustix::RenderConfig {
-            integrator: "path".parse().unwrap(),
-            samples: 64,
-            ..scene.config.clone()
-        };
-        caustix::render(&scene, accel.as_ref(), &config, &|_| {}).unwrap().film.beauty()
-    };
-    let (a, b) = (image(&from_file), image(&declared));
-    let mean = |img: &caustix::film::Image| img.pixels.iter().map(|p| p.element_sum()).sum::<f32>();
-    let ratio = mean(&a) / mean(&b);
-    assert!((ratio - 1.0).abs() < 0.01, "image from the file's light / declared light: {ratio}");
-    // The light itself is seen at its radiance: the pixels at the top
-    // centre hold it in both.
-    let brightest = |img: &caustix::film::Image| img.pixels.iter().map(|p| p.x).fold(0.0, f32::max);
-    assert!(brightest(&a) > 0.5 * radiance.x, "{}", brightest(&a));
+    let declared = walls_under_a_declared_light(power);
+    renders_as(dir.path(), &from_file, &declared, radiance.x);
 }
 
-/// An emitting object not wholly made of parallelograms, and an emission
-/// that is no colour, are said: they do not emit (not even the object's
-/// parallelograms: a few quads of a curved lamp lit would be a patchwork).
+/// Emitting faces that make no parallelogram become triangle lights: the
+/// Cornell box's light as four triangles about its centre is four lights
+/// of its power between them, facing down (mirrored too), and the box
+/// renders as with the light declared as one quad.
 #[test]
-fn emission_that_makes_no_light_is_said() {
+fn emitting_triangles_become_triangle_lights() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "box.mtl", CORNELL_MTL);
+    write(dir.path(), "fan.obj", &format!("{CORNELL_WALLS}{CORNELL_LIGHT_FAN}"));
+    let radiance = Vec3::new(17.0, 12.0, 4.0);
+    let power = radiance * std::f32::consts::PI * 0.47 * 0.38;
+    for (transform, scale) in [("", 1.0), ("transform = { scale = [-2, 2, 2] }\n", 4.0)] {
+        let text = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"fan.obj\"\n{transform}");
+        let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+        assert!(scene.warnings.is_empty(), "{:#?}", scene.warnings);
+        assert_eq!(scene.lights.len(), 4);
+        assert_eq!(scene.triangle_count(), 10);
+        for light in scene.lights.iter() {
+            assert_eq!(light.shape(), Some(caustix::light::Shape::Triangle));
+            assert!(light.facing().abs_diff_eq(Vec3::NEG_Y, 1e-6), "{transform}: {}", light.facing());
+            assert!((light.front_radiance() - radiance).abs().max_element() < 1e-3 * radiance.x);
+        }
+        let total: Vec3 = scene.lights.iter().map(|l| l.power()).sum();
+        assert!(total.abs_diff_eq(scale * power, 1e-3 * scale * power.x), "{transform}: {total}");
+    }
+    let declared = walls_under_a_declared_light(power);
+    write(dir.path(), "walls.obj", CORNELL_WALLS);
+    // Declared as well, or scaled past what f64 areas hold: one warning for the four.
+    let both = declared.replace("walls.obj", "fan.obj");
+    let scene = Scene::load(&write(dir.path(), "s.toml", &both)).unwrap();
+    let twice = "the light of fan.obj:light #1 (and 3 more of the mesh files' lights) lies where the scene \
+                 file's [[area_light]] #1 does";
+    assert_eq!(scene.warnings.iter().filter(|w| w.contains(twice)).count(), 1, "{:#?}", scene.warnings);
+    let flat = format!(
+        "{CORNELL_CAMERA}[[mesh]]\nfile = \"fan.obj\"\ntransform = {{ scale = [1e-200, 1, 1e-200] }}\n"
+    );
+    let scene = Scene::load(&write(dir.path(), "s.toml", &flat)).unwrap();
+    let flattened = "the light of fan.obj:light #1 (and 3 more of its lights): the [[mesh]]'s transform leaves it no area";
+    assert_eq!(scene.warnings.iter().filter(|w| w.contains(flattened)).count(), 1, "{:#?}", scene.warnings);
+    assert!(scene.lights.is_empty());
+    let fan = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"fan.obj\"\n");
+    renders_as(dir.path(), &fan, &declared, radiance.x);
+}
+
+/// An emitting object of parallelograms and triangles alike is lit whole,
+/// and an emission that is no colour is said.
+#[test]
+fn emission_of_any_faces_makes_lights_and_a_wrong_one_is_said() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "box.mtl", &format!("{CORNELL_MTL}newmtl wrong\nKe 1 -1 0\n"));
     // A lamp of the light's material, a square and a triangle beside it,
@@ -786,16 +843,11 @@ fn emission_that_makes_no_light_is_said() {
     write(dir.path(), "b.obj", &format!("{CORNELL_WALLS}{CORNELL_LIGHT_QUAD}{extra}"));
     let text = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"b.obj\"\n");
     let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
-    assert_eq!(scene.lights.len(), 1);
-    assert_eq!(scene.warnings.len(), 2, "{:#?}", scene.warnings);
-    assert!(
-        scene.warnings.iter().any(|w| w.contains(
-            "b.obj: 1 object is of materials that emit light (Ke) but not made of parallelograms, which caustix's \
-             area lights are (`lamp`, of `light`: 1 of its 3 triangles make none with a neighbour)"
-        )),
-        "{:#?}",
-        scene.warnings
-    );
+    // The box's light, the lamp's square and the triangle beside it.
+    let shapes: Vec<_> = scene.lights.iter().filter_map(|l| l.shape()).collect();
+    use caustix::light::Shape::{Parallelogram, Triangle};
+    assert_eq!(shapes, [Parallelogram, Parallelogram, Triangle]);
+    assert_eq!(scene.warnings.len(), 1, "{:#?}", scene.warnings);
     assert!(
         scene.warnings.iter().any(|w| w.contains(
             "1 of its 5 materials gives an emission (Ke) with a negative or infinite part (as `wrong` does)"
@@ -803,9 +855,8 @@ fn emission_that_makes_no_light_is_said() {
         "{:#?}",
         scene.warnings
     );
-    // The lamp stays a surface, whole.
-    let lamp = scene.meshes.iter().find(|m| m.name == "b.obj:lamp").expect("the lamp");
-    assert_eq!(lamp.indices.len(), 3);
+    // The lamp left the mesh, whole.
+    assert!(scene.meshes.iter().all(|m| m.name != "b.obj:lamp"));
 
     // A light brighter than 32-bit floats can carry is refused, as a scene
     // file's is.
@@ -832,4 +883,19 @@ fn info_of_a_mesh_with_lights_frames_it_lit_by_them() {
     assert!(!out.contains("[[point_light]]"), "{out}");
     let scene = Scene::load(&write(dir.path(), "framed.toml", &out)).unwrap();
     assert_eq!(scene.lights.len(), 1);
+
+    // A lamp's file of nothing but faces that emit, none pairing: framed
+    // by its lights.
+    let lamp = "mtllib box.mtl\no lamp\nv 0 1 0\nv 1 1 0\nv 0 1 1\nv 1 2 1\nusemtl light\nf 1 2 3\nf 2 4 3\n";
+    let obj = write(dir.path(), "lamp.obj", lamp);
+    let run = common::caustix(&["info".as_ref(), obj.as_os_str()]);
+    let out = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(out.contains("# geometry  0 triangles"), "{out}");
+    assert!(out.contains("# bounds    [0, 1, 0] to [1, 2, 1]"), "{out}");
+    assert!(out.contains("# lights    2 area lights, from faces that emit (Ke), all triangles"), "{out}");
+    // (Wound clockwise seen from above: facing down.)
+    assert!(out.contains("triangle at [0, 1, 0], [1, 1, 0], [0, 1, 1], facing [0, -1, 0]"), "{out}");
+    let scene = Scene::load(&write(dir.path(), "framed.toml", &out)).unwrap();
+    assert_eq!(scene.lights.len(), 2);
 }

@@ -244,14 +244,29 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
     // bunny.toml` is a scene to render as it is.
     outln!("# mesh      {} (loaded in {:.2} s)", path.display(), start.elapsed().as_secs_f64());
     outln!("# geometry  {triangles} triangles, {vertices} vertices in {} meshes", meshes.len());
-    anyhow::ensure!(triangles > 0, "{}: no triangles to show", path.display());
+    // (A lamp's file may hold nothing but the faces that became its lights.)
+    anyhow::ensure!(
+        triangles > 0 || !lights.is_empty(),
+        "{}: no triangles or lights to show",
+        path.display()
+    );
     outln!("# bounds    {} to {} (size {})", b.min, b.max, b.max - b.min);
     for m in meshes {
         outln!("#   mesh    {:<24} {:>9} triangles", m.name, m.indices.len());
     }
     if !lights.is_empty() {
         let n = lights.len();
-        outln!("# lights    {n} area light{}, from faces that emit (Ke)", if n == 1 { "" } else { "s" });
+        let triangles =
+            lights.iter().filter(|(_, l)| l.shape() == Some(caustix::light::Shape::Triangle)).count();
+        let of_them = match triangles {
+            0 => String::new(),
+            t if t == n => ", all triangles".to_string(),
+            t => format!(", {t} of them triangles"),
+        };
+        outln!(
+            "# lights    {n} area light{}, from faces that emit (Ke){of_them}",
+            if n == 1 { "" } else { "s" }
+        );
         // (A file may make hundreds.)
         const LISTED: usize = 8;
         for (mesh, light) in lights.iter().take(LISTED) {

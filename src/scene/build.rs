@@ -423,6 +423,7 @@ impl Builder<'_> {
                 mesh.place(&matrix, self.origin);
                 meshes.push(mesh);
             }
+            let mut flattened = Vec::new();
             for (i, light) in file_lights.iter().enumerate() {
                 let name = format!("the light of {} #{}", light.mesh, i + 1);
                 match light.placed(&matrix, self.origin) {
@@ -438,8 +439,15 @@ impl Builder<'_> {
                         ))
                     }
                     Some(placed) => from_meshes.push((name.clone(), self.within_reach(&name, placed)?)),
-                    None => obj_warnings.push(format!("{name}: the [[mesh]]'s transform leaves it no area")),
+                    None => flattened.push(name),
                 }
+            }
+            if let Some(first) = flattened.first() {
+                let more = match flattened.len() - 1 {
+                    0 => String::new(),
+                    n => format!(" (and {n} more of its lights)"),
+                };
+                obj_warnings.push(format!("{first}{more}: the [[mesh]]'s transform leaves it no area"));
             }
         }
         obj_warnings.extend(super::mesh_lights::twice_in_one_place(lights, &from_meshes));

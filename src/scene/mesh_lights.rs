@@ -1,33 +1,34 @@
 //! Lights a mesh file gives by its faces: where an OBJ file's MTL material
-//! emits (`Ke`), its faces that make parallelograms (a quad, or two
-//! triangles across a diagonal) become area lights of that radiance, as a
-//! scene file's `[[area_light]]` would be. The light of the Cornell box as
-//! it is passed around as OBJ is such a quad.
+//! emits (`Ke`), its faces become area lights of that radiance, as a scene
+//! file's `[[area_light]]` would be: faces that make parallelograms (a
+//! quad, or two triangles across a diagonal; the light of the Cornell box
+//! as it is passed around as OBJ is one) as one panel each, and the
+//! triangles left (a curved lamp's) as triangle lights ([`Shape`]).
 //!
 //! An area light is one-sided and blocks rays on both sides (its back is
 //! black), so the faces that become lights leave the mesh; the side a
 //! light faces is its faces' own: that of the file's vertex normals where
 //! it gives them, else of their winding in the file (as Mitsuba and pbrt
-//! read an emitting mesh; see [`parallelograms`]). An emitting object whose
-//! faces do not all pair into parallelograms stays a surface that does not
-//! emit, whole (caustix's area lights are parallelograms, and a few quads
-//! of a curved lamp lit would be a patchwork), and the loader says so.
+//! read an emitting mesh; see [`panels`]).
 
 use std::collections::HashMap;
 
 use glam::{DMat4, DVec3, Vec3};
 
-use crate::light::Light;
+use crate::light::{Light, Shape};
 
-/// An emitting parallelogram of a mesh file, in the file's coordinates.
+/// An emitting panel of a mesh file, in the file's coordinates.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshLight {
     /// The mesh (file and object) it came from.
     pub mesh: String,
-    /// Its centre.
+    /// A parallelogram or a triangle, over `center`, `u` and `v` as
+    /// [`Shape`] says.
+    pub shape: Shape,
+    /// Its centre (a triangle's: [`Shape::Triangle`]).
     pub center: DVec3,
-    /// A full edge vector: corners at `center +- u/2 +- v/2`; light leaves
-    /// from the side `u x v` faces.
+    /// A full edge vector: a parallelogram's corners at `center +- u/2 +-
+    /// v/2`; light leaves from the side `u x v` faces.
     pub u: DVec3,
     /// The other full edge vector.
     pub v: DVec3,
@@ -47,53 +48,100 @@ impl MeshLight {
         if matrix.determinant() < 0.0 {
             std::mem::swap(&mut u, &mut v);
         }
-        let area = u.cross(v).length();
-        if !(area > 0.0 && area.is_finite()) {
+        // (Swapping a triangle's edges keeps its corners: it is the same triangle.)
+        let whole = u.cross(v).length();
+        if !(whole > 0.0 && whole.is_finite()) {
             return None;
         }
+        let area = if self.shape == Shape::Triangle { 0.5 * whole } else { whole };
         let power = (self.radiance.as_dvec3() * std::f64::consts::PI * area).as_vec3();
-        Some(Light::area(center, u.as_vec3(), v.as_vec3(), power))
+        Some(Light::panel(self.shape, center, u.as_vec3(), v.as_vec3(), power))
     }
 }
 
-/// Where a light a mesh file makes lies on an area light the scene file
+/// Where lights a mesh file makes lie on an area light the scene file
 /// declares, facing the same way: the scene would have that light twice
 /// (as it would after declaring a mesh's light by hand, as caustix asked
 /// before it read `Ke`). `declared` are the scene file's lights in order;
-/// returns a warning for each such pair.
+/// returns a warning for each declared light that mesh lights lie on,
+/// naming the first of them (a lamp of many triangles is one warning).
 pub fn twice_in_one_place(declared: &[Light], from_meshes: &[(String, Light)]) -> Vec<String> {
+    // A panel as its centroid (the centre of a parallelogram; a triangle's
+    // `center` is the midpoint of an edge) and its edges.
     let area = |light: &Light| match *light {
-        Light::Area { center, u, v, .. } => Some((center.as_dvec3(), u.as_dvec3(), v.as_dvec3())),
+        Light::Area { center, u, v, .. } => {
+            let (c, u, v) = (center.as_dvec3(), u.as_dvec3(), v.as_dvec3());
+            let centroid = if light.shape() == Some(Shape::Triangle) { c - (u + v) / 6.0 } else { c };
+            Some((centroid, u, v))
+        }
         _ => None,
     };
     let mut warnings = Vec::new();
-    for (name, light) in from_meshes {
-        let Some((c, u, v)) = area(light) else { continue };
-        let normal = u.cross(v).normalize();
-        let size = u.length().max(v.length());
-        let areas = declared.iter().filter_map(area);
-        for (k, (c2, u2, v2)) in areas.enumerate() {
-            // The same way, within a twentieth of its size of its plane, and
-            // its centre within its half-size: one light, given twice.
-            let same_way = u2.cross(v2).normalize().dot(normal) > 0.99;
-            let near =
-                (c2 - c).dot(normal).abs() < 0.05 * size && (c2 - c).length() < 0.5 * size.max(u2.length());
-            if same_way && near {
-                warnings.push(format!(
-                    "{name} lies where the scene file's [[area_light]] #{} does, facing the same way: the \
-                     scene has that light twice (a mesh file's Ke makes its own lights); leave out the \
-                     [[area_light]]",
-                    k + 1
-                ));
-            }
-        }
+    for (k, (c2, u2, v2)) in declared.iter().enumerate().filter_map(|(k, l)| Some((k, area(l)?))) {
+        let normal2 = u2.cross(v2).normalize();
+        let (uu, vv, uv) = (u2.length_squared(), v2.length_squared(), u2.dot(v2));
+        let on_it = |(c, u, v): (DVec3, DVec3, DVec3)| {
+            // The same way, within a twentieth of their size of the
+            // declared light's plane, and its centroid on that light (a
+            // twentieth of an edge over): one light, given twice.
+            let size = u.length().max(v.length()).max(u2.length()).max(v2.length());
+            let local = c - c2;
+            let (lu, lv, det) = (local.dot(u2), local.dot(v2), uu * vv - uv * uv);
+            let (a, b) = ((vv * lu - uv * lv) / det, (uu * lv - uv * lu) / det);
+            normal2.dot(u.cross(v).normalize()) > 0.99
+                && local.dot(normal2).abs() < 0.05 * size
+                && a.abs() < 0.55
+                && b.abs() < 0.55
+        };
+        let mut twice = from_meshes.iter().filter(|(_, light)| area(light).is_some_and(on_it));
+        let Some((first, _)) = twice.next() else { continue };
+        let more = match twice.count() {
+            0 => String::new(),
+            n => format!(" (and {n} more of the mesh files' lights)"),
+        };
+        warnings.push(format!(
+            "{first}{more} lies where the scene file's [[area_light]] #{} does, facing the same way: the \
+             scene has that light twice (a mesh file's Ke makes its own lights); leave out the [[area_light]]",
+            k + 1
+        ));
     }
     warnings
 }
 
 /// A parallelogram as its centre and full edge vectors `u` and `v`, its
 /// front the side `u x v` faces.
-pub type Parallelogram = (DVec3, DVec3, DVec3);
+type Parallelogram = (DVec3, DVec3, DVec3);
+
+/// The panels that emitting `triangles` (over `positions`) make: the
+/// parallelograms they make in pairs (`parallelograms`), and each
+/// triangle left as a triangle, as `(shape, center, u, v)`. A triangle
+/// faces its corners' `normals` where the file gives them, else its
+/// winding. Triangles of no area make none.
+pub fn panels(
+    positions: &[Vec3],
+    normals: Option<&[Vec3]>,
+    triangles: &[[u32; 3]],
+) -> Vec<(Shape, DVec3, DVec3, DVec3)> {
+    let (found, left) = parallelograms(positions, normals, triangles);
+    let mut panels: Vec<_> = found.into_iter().map(|(c, u, v)| (Shape::Parallelogram, c, u, v)).collect();
+    let corner = |i: u32| positions[i as usize].as_dvec3();
+    for tri in left {
+        let a = corner(tri[0]);
+        let (mut u, mut v) = (corner(tri[1]) - a, corner(tri[2]) - a);
+        let area = u.cross(v).length();
+        if !(area > 0.0 && area.is_finite()) {
+            continue;
+        }
+        if let Some(normals) = normals {
+            let facing: DVec3 = tri.iter().map(|&i| normals[i as usize].as_dvec3()).sum();
+            if facing.dot(u.cross(v)) < 0.0 {
+                std::mem::swap(&mut u, &mut v);
+            }
+        }
+        panels.push((Shape::Triangle, a + 0.5 * (u + v), u, v));
+    }
+    panels
+}
 
 /// A corner by its position's bits (corners written twice are one).
 type Corner = [u32; 3];
@@ -114,7 +162,7 @@ const PARALLELOGRAM_TOLERANCE: f64 = 1e-4;
 /// shading normals and pbrt-v4 turns a triangle to its normals), whichever
 /// way its two triangles wind; without, the side both triangles wind
 /// counter-clockwise about (two that wind against each other make none).
-pub fn parallelograms(
+fn parallelograms(
     positions: &[Vec3],
     normals: Option<&[Vec3]>,
     triangles: &[[u32; 3]],
@@ -262,9 +310,36 @@ mod tests {
     }
 
     #[test]
+    fn triangles_left_become_triangles_facing_their_normals_or_winding() {
+        // The square's two triangles pair; a triangle beside them, wound
+        // to face up, and one of no area, do not.
+        let mut positions = square();
+        positions.extend([Vec3::new(5.0, 0.0, 0.0), Vec3::new(6.0, 0.0, 0.0), Vec3::new(5.0, 0.0, -1.0)]);
+        positions.extend([Vec3::new(7.0, 0.0, 0.0), Vec3::new(8.0, 0.0, 0.0), Vec3::new(9.0, 0.0, 0.0)]);
+        let triangles = [[0, 1, 2], [0, 2, 3], [4, 5, 6], [7, 8, 9]];
+        let found = panels(&positions, None, &triangles);
+        assert_eq!(found.len(), 2, "{found:?}");
+        assert_eq!(found[0].0, Shape::Parallelogram);
+        let (shape, center, u, v) = found[1];
+        assert_eq!(shape, Shape::Triangle);
+        // Corner 4 at center - u/2 - v/2, the others at it + u and + v.
+        let corner = center - 0.5 * (u + v);
+        assert!(corner.abs_diff_eq(DVec3::new(5.0, 0.0, 0.0), 1e-12), "{corner}");
+        assert!((corner + u).abs_diff_eq(DVec3::new(6.0, 0.0, 0.0), 1e-12));
+        assert!((corner + v).abs_diff_eq(DVec3::new(5.0, 0.0, -1.0), 1e-12));
+        assert!(u.cross(v).normalize().abs_diff_eq(DVec3::Y, 1e-12), "{}", u.cross(v));
+        // With normals pointing down it faces down, on the same corners.
+        let down = vec![Vec3::NEG_Y; positions.len()];
+        let (_, center2, u2, v2) = panels(&positions, Some(&down), &triangles)[1];
+        assert!(u2.cross(v2).normalize().abs_diff_eq(DVec3::NEG_Y, 1e-12), "{}", u2.cross(v2));
+        assert_eq!((center2 - 0.5 * (u2 + v2)), corner);
+    }
+
+    #[test]
     fn a_placed_light_keeps_its_radiance_and_its_front() {
         let light = MeshLight {
             mesh: "m".into(),
+            shape: Shape::Parallelogram,
             center: DVec3::new(0.5, 2.0, -1.0),
             u: DVec3::new(1.0, 0.0, 0.0),
             v: DVec3::new(0.0, 0.0, 2.0),

@@ -144,7 +144,6 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
     let mut objects = Vec::with_capacity(models.len());
     let mut lights = Vec::new();
     // Emitting objects that made no lights, and the first of them.
-    let (mut dark_objects, mut dark_first) = (0, None);
     let mut enclosed = 0.0;
     let mut defaulted = Vec::new();
     let mut concave = Concave::default();
@@ -178,7 +177,7 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         let (material, glass, emits) = match (material_override, m.material_id, fallback) {
             (Some(id), _, _) => (id, scene_glass(id), None),
             (None, Some(id), _) if id < materials.len() => {
-                (first_material + id, materials[id].refracts(), emission[id].map(|e| (e, id)))
+                (first_material + id, materials[id].refracts(), emission[id])
             }
             (None, _, Some(id)) => {
                 defaulted.push(name.clone());
@@ -190,24 +189,19 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
             }
         };
         let mut indices = indices;
-        if let Some((radiance, id)) = emits {
+        if let Some(radiance) = emits {
             // In the file's winding, before `winding::orient` may turn it.
-            let (found, left) = mesh_lights::parallelograms(&positions, normals.as_deref(), &indices);
-            if left.is_empty() {
-                // All of it became lights. An object that does not wholly
-                // (a lamp's curved shade) stays a surface: a few of its
-                // quads lit would be a patchwork, not its light.
-                lights.extend(found.into_iter().map(|(center, u, v)| MeshLight {
-                    mesh: name.clone(),
-                    center,
-                    u,
-                    v,
-                    radiance,
-                }));
-                continue;
-            }
-            dark_objects += 1;
-            dark_first.get_or_insert((model.name.clone(), mtl_names[id].clone(), left.len(), indices.len()));
+            // All of it becomes lights, and leaves the mesh.
+            let panels = mesh_lights::panels(&positions, normals.as_deref(), &indices);
+            lights.extend(panels.into_iter().map(|(shape, center, u, v)| MeshLight {
+                mesh: name.clone(),
+                shape,
+                center,
+                u,
+                v,
+                radiance,
+            }));
+            continue;
         }
         let normals = FileNormals::of(normals, &positions);
         let turned = winding::orient(&positions, &mut indices, normals.for_winding(), glass);
@@ -249,16 +243,6 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         let who = format!("{file_name}: object `{model}`");
         warnings.extend(mesh::no_area_warning(&who, faces, mesh.indices.len()));
         meshes.push(mesh);
-    }
-    if let Some((object, material, left, all)) = dark_first {
-        let objects =
-            if dark_objects == 1 { "1 object is".to_string() } else { format!("{dark_objects} objects are") };
-        warnings.push(format!(
-            "{file_name}: {objects} of materials that emit light (Ke) but not made of parallelograms, which \
-             caustix's area lights are (`{object}`, of `{material}`: {left} of its {all} triangles make none \
-             with a neighbour): left as surfaces that do not emit (declare such lights in the scene file: \
-             `[[area_light]]`, README)"
-        ));
     }
     warnings.extend(concave.warning().map(|w| format!("{file_name}: {w}")));
     let short = short_faces(&text);
