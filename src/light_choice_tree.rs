@@ -322,8 +322,8 @@ mod tests {
     use crate::sampling::Rng;
 
     /// Lights of every kind in a 4-unit box, facing every way: panels of
-    /// several sizes (skewed too), point lights, spots of narrow and wide
-    /// cones.
+    /// several sizes (skewed too), triangles, point lights, spots of narrow
+    /// and wide cones.
     fn lights(rng: &mut Rng, count: usize) -> Vec<Light> {
         let mut point = || Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
         let mut lights = Vec::new();
@@ -339,6 +339,7 @@ mod tests {
                     falloff_start: 0.05,
                     power,
                 },
+                5 => Light::triangle(a, a + 0.2 * b, a + 0.1 * c, power),
                 _ => Light::area(a, 0.2 * b, 0.1 * c, power),
             });
         }

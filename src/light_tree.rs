@@ -245,6 +245,7 @@ fn enters(b: &Bounds, origin: Vec3, inv: Vec3, reach: f32) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::light::Shape;
     use crate::sampling::Rng;
 
     #[test]
@@ -269,7 +270,7 @@ mod tests {
         Vec3::new(uniform_in(rng, -half, half), uniform_in(rng, -half, half), uniform_in(rng, -half, half))
     }
 
-    /// Panels of every kind: turned every way and along the axes, from a
+    /// Panels of every kind: turned every way (some triangles) and along the axes, from a
     /// thousandth to twice the room's size, far from the origin or near
     /// it, some twice over (ties), some on one plane, some with no area;
     /// and a point and a spot light among them.
@@ -289,7 +290,9 @@ mod tests {
                     continue;
                 }
             };
-            all.push(Light::area(center, u, v, Vec3::ONE));
+            // Some of the panels turned every way are triangles.
+            let shape = if i % 8 == 5 { Shape::Triangle } else { Shape::Parallelogram };
+            all.push(Light::panel(shape, center, u, v, Vec3::ONE));
             if i % 37 == 0 {
                 all.push(Light::area(center, u, v, Vec3::ONE)); // the same again
             }
