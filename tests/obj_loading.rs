@@ -898,4 +898,13 @@ fn info_of_a_mesh_with_lights_frames_it_lit_by_them() {
     assert!(out.contains("triangle at [0, 1, 0], [1, 1, 0], [0, 1, 1], facing [0, -1, 0]"), "{out}");
     let scene = Scene::load(&write(dir.path(), "framed.toml", &out)).unwrap();
     assert_eq!(scene.lights.len(), 2);
+    // Alone in a scene, it has nothing to light, and the error says why.
+    let alone = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"lamp.obj\"\n");
+    let error = Scene::load(&write(dir.path(), "alone.toml", &alone)).unwrap_err().to_string();
+    assert!(
+        error.contains(
+            "the scene has no geometry (only 2 area lights, which light nothing without a surface)"
+        ),
+        "{error}"
+    );
 }

@@ -64,11 +64,16 @@ impl Builder<'_> {
         if triangles == 0 {
             // What the mesh files said: one may be why there is nothing.
             let said = self.warnings.iter().map(|w| format!("; {w}")).collect::<String>();
+            // A lamp's mesh file may be all faces that emit, now lights.
+            let only_lights = match lights.iter().filter(|l| !l.is_delta()).count() {
+                0 => String::new(),
+                n => format!(" (only {n} area lights, which light nothing without a surface)"),
+            };
             return Err(Error::input(
                 self.path,
                 format!(
-                    "the scene has no geometry: add a [[sphere]], [[quad]], [[box]], [[ring]], [[teapot]] \
-                     or [[mesh]]{said}"
+                    "the scene has no geometry{only_lights}: add a [[sphere]], [[quad]], [[box]], [[ring]], \
+                     [[teapot]] or [[mesh]]{said}"
                 ),
             ));
         }
