@@ -151,7 +151,12 @@ fn load(path: &Path) -> anyhow::Result<Scene> {
         eprintln!("warning: {}: {w}", path.display());
     }
     if seconds >= SAY_SECONDS {
-        eprintln!("scene: {} triangles loaded in {seconds:.2} s", scene.triangle_count());
+        // (A mesh file's emitting faces are lights, not triangles.)
+        let lights = match scene.lights.len() {
+            0 | 1 => String::new(),
+            n => format!(" and {n} lights"),
+        };
+        eprintln!("scene: {} triangles{lights} loaded in {seconds:.2} s", scene.triangle_count());
     }
     Ok(scene)
 }

@@ -11,8 +11,6 @@
 //! it gives them, else of their winding in the file (as Mitsuba and pbrt
 //! read an emitting mesh; see [`panels`]).
 
-use std::collections::HashMap;
-
 use glam::{DMat4, DVec3, Vec3};
 
 use crate::light::{Light, Shape};
@@ -170,17 +168,34 @@ fn parallelograms(
     let corner = |i: u32| positions[i as usize].as_dvec3();
     // (`+ 0.0` makes a corner written as -0 the same as one written as 0.)
     let key = |i: u32| positions[i as usize].to_array().map(|x| (x + 0.0).to_bits());
-    // Each edge (by its corners' positions, the smaller first) and the
-    // triangles it bounds, in order, with whether it goes smaller first in
-    // that triangle's winding.
-    let mut edges: HashMap<(Corner, Corner), Vec<(usize, bool)>> = HashMap::new();
     let edge =
         |a: u32, b: u32| if key(a) <= key(b) { ((key(a), key(b)), true) } else { ((key(b), key(a)), false) };
+    // Each side of each triangle: its edge (by its corners' positions, the
+    // smaller first), the triangle, and whether the edge goes smaller first
+    // in that triangle's winding; sorted so that the triangles an edge
+    // bounds lie together, in order. (A hash map of a list per edge took
+    // most of the loading of a lamp of a million faces in allocations.)
+    let mut sides: Vec<((Corner, Corner), u32, bool)> = Vec::with_capacity(3 * triangles.len());
     for (t, tri) in triangles.iter().enumerate() {
         for k in 0..3 {
             let (e, forward) = edge(tri[k], tri[(k + 1) % 3]);
-            edges.entry(e).or_default().push((t, forward));
+            sides.push((e, t as u32, forward));
         }
+    }
+    // Sorted by edge, then by triangle: each triangle's three sides keep
+    // their order among its own.
+    let mut order: Vec<u32> = (0..sides.len() as u32).collect();
+    order.sort_unstable_by(|&x, &y| sides[x as usize].0.cmp(&sides[y as usize].0).then(x.cmp(&y)));
+    // Each side's run: the sides along its edge, as a range of `order`.
+    let mut runs = vec![(0u32, 0u32); sides.len()];
+    let mut start = 0;
+    while start < order.len() {
+        let e = sides[order[start] as usize].0;
+        let end = start + order[start..].iter().take_while(|&&i| sides[i as usize].0 == e).count();
+        for &i in &order[start..end] {
+            runs[i as usize] = (start as u32, end as u32);
+        }
+        start = end;
     }
     let mut paired = vec![false; triangles.len()];
     let mut lights = Vec::new();
@@ -190,13 +205,15 @@ fn parallelograms(
         }
         for k in 0..3 {
             let (a, b, p) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
-            let (e, forward) = edge(a, b);
+            let forward = sides[3 * t + k].2;
+            let (start, end) = runs[3 * t + k];
             // A neighbour wound the same way crosses the edge the other
             // way; with normals, either neighbour will do.
-            let Some(&(other, _)) = edges[&e]
-                .iter()
-                .find(|&&(o, o_forward)| o != t && !paired[o] && (normals.is_some() || o_forward != forward))
-            else {
+            let Some(other) = order[start as usize..end as usize].iter().find_map(|&i| {
+                let (_, o, o_forward) = sides[i as usize];
+                let o = o as usize;
+                (o != t && !paired[o] && (normals.is_some() || o_forward != forward)).then_some(o)
+            }) else {
                 continue;
             };
             let Some(q) = triangles[other].iter().copied().find(|&i| key(i) != key(a) && key(i) != key(b))
