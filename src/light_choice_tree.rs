@@ -134,21 +134,19 @@ impl Bound {
             // centre (w), less the lights' spread (x), less what the box
             // subtends from `p` (the nearest): if that is still beyond what
             // they send, nothing reaches `p`. Each difference is clamped at 0.
+            // Within the spread (x = 0) the nearest angle is 0, within
+            // any `beyond` (`least_cos` is below 1): nothing more to work out.
             let cos_w = (self.axis.dot(to_p) / d2.sqrt()).clamp(-1.0, 1.0);
-            let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
-            let (cos_x, sin_x) = if cos_w >= self.cos_spread {
-                (1.0, 0.0)
-            } else {
-                (
-                    cos_w * self.cos_spread + sin_w * self.sin_spread,
-                    sin_w * self.cos_spread - cos_w * self.sin_spread,
-                )
-            };
-            let sin_b = (self.radius2 / d2).sqrt().min(1.0);
-            let cos_b = (1.0 - sin_b * sin_b).max(0.0).sqrt();
-            let cos_nearest = if cos_x >= cos_b { 1.0 } else { cos_x * cos_b + sin_x * sin_b };
-            if cos_nearest <= self.least_cos {
-                return 0.0;
+            if cos_w < self.cos_spread {
+                let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
+                let cos_x = cos_w * self.cos_spread + sin_w * self.sin_spread;
+                let sin_x = sin_w * self.cos_spread - cos_w * self.sin_spread;
+                let sin_b = (self.radius2 / d2).sqrt().min(1.0);
+                let cos_b = (1.0 - sin_b * sin_b).max(0.0).sqrt();
+                let cos_nearest = if cos_x >= cos_b { 1.0 } else { cos_x * cos_b + sin_x * sin_b };
+                if cos_nearest <= self.least_cos {
+                    return 0.0;
+                }
             }
         }
         // Finite at the lights themselves, as `Light::reach` is.
