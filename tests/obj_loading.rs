@@ -829,16 +829,17 @@ fn emitting_triangles_become_triangle_lights() {
     renders_as(dir.path(), &fan, &declared, radiance.x);
 }
 
-/// An emitting object of parallelograms and triangles alike is lit whole,
-/// and an emission that is no colour is said.
+/// An emitting object of parallelograms and triangles alike is lit whole
+/// (a face of no area is said, as a surface's is), and an emission that is
+/// no colour is said.
 #[test]
 fn emission_of_any_faces_makes_lights_and_a_wrong_one_is_said() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "box.mtl", &format!("{CORNELL_MTL}newmtl wrong\nKe 1 -1 0\n"));
-    // A lamp of the light's material, a square and a triangle beside it,
-    // and a triangle of the wrong one.
+    // A lamp of the light's material, a square, a triangle beside it and
+    // one of no area, and a triangle of the wrong one.
     let extra = "o lamp\nv 0 1.9 0\nv 0.1 1.9 0\nv 0.1 1.9 0.1\nv 0 1.9 0.1\nv 0.2 1.9 0\n\
-                 usemtl light\nf -5 -2 -3 -4\nf -4 -3 -1\n\
+                 usemtl light\nf -5 -2 -3 -4\nf -4 -3 -1\nf -5 -4 -1\n\
                  o odd\nv 0 1 0\nv 0.1 1 0\nv 0 1 0.1\nusemtl wrong\nf -3 -1 -2\n";
     write(dir.path(), "b.obj", &format!("{CORNELL_WALLS}{CORNELL_LIGHT_QUAD}{extra}"));
     let text = format!("{CORNELL_CAMERA}[[mesh]]\nfile = \"b.obj\"\n");
@@ -847,7 +848,10 @@ fn emission_of_any_faces_makes_lights_and_a_wrong_one_is_said() {
     let shapes: Vec<_> = scene.lights.iter().filter_map(|l| l.shape()).collect();
     use caustix::light::Shape::{Parallelogram, Triangle};
     assert_eq!(shapes, [Parallelogram, Parallelogram, Triangle]);
-    assert_eq!(scene.warnings.len(), 1, "{:#?}", scene.warnings);
+    assert_eq!(scene.warnings.len(), 2, "{:#?}", scene.warnings);
+    // A face of no area (three corners on a line) makes no light, and is said.
+    let no_area = "b.obj: object `lamp`: 1 of its 4 triangles have no area";
+    assert!(scene.warnings.iter().any(|w| w.contains(no_area)), "{:#?}", scene.warnings);
     assert!(
         scene.warnings.iter().any(|w| w.contains(
             "1 of its 5 materials gives an emission (Ke) with a negative or infinite part (as `wrong` does)"
