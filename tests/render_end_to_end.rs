@@ -199,6 +199,16 @@ fn cli_info_lists_the_scene() {
     for expected in ["2 triangles, 4 vertices in 1 meshes", "white", "point at [0, 0, 4]", EMBREE] {
         assert!(stdout.contains(expected), "missing `{expected}` in:\n{stdout}");
     }
+    // Of many lights, the first eight and a count (a mesh file's emitting
+    // faces may make a million).
+    let many: String =
+        (0..10).map(|i| format!("[[point_light]]\nposition = [{i}, 1, 4]\npower = 1\n")).collect();
+    let scene = write(dir.path(), "many.toml", &format!("{QUAD_SCENE}\n{many}"));
+    let run = caustix(&["info".as_ref(), scene.as_os_str()]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(stdout.contains("lights    11\n"), "{stdout}");
+    assert_eq!(stdout.matches("  point at").count(), 8, "{stdout}");
+    assert!(stdout.contains("  and 3 more\n"), "{stdout}");
 }
 
 #[test]

@@ -189,8 +189,11 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
         );
     }
     outln!("lights    {}", scene.lights.len());
-    for l in &scene.lights {
+    for l in scene.lights.iter().take(LISTED_LIGHTS) {
         outln!("  {}", l.describe(scene.origin));
+    }
+    if scene.lights.len() > LISTED_LIGHTS {
+        outln!("  and {} more", scene.lights.len() - LISTED_LIGHTS);
     }
     let start = std::time::Instant::now();
     let accel = build_accel(&scene)?;
@@ -214,6 +217,10 @@ pub fn info(path: &Path) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// The lights `caustix info` describes one by one, at most: a mesh file's
+/// emitting faces may make a million.
+const LISTED_LIGHTS: usize = 8;
 
 /// `caustix info` of a mesh file: what a `[[mesh]]` of it would hold, and a
 /// scene that frames it, to paste into a scene file (a new mesh's size and
@@ -267,13 +274,11 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
             "# lights    {n} area light{}, from faces that emit (Ke){of_them}",
             if n == 1 { "" } else { "s" }
         );
-        // (A file may make hundreds.)
-        const LISTED: usize = 8;
-        for (mesh, light) in lights.iter().take(LISTED) {
+        for (mesh, light) in lights.iter().take(LISTED_LIGHTS) {
             outln!("#   light   {mesh:<24} {}", light.describe(glam::DVec3::ZERO));
         }
-        if n > LISTED {
-            outln!("#   and {} more", n - LISTED);
+        if n > LISTED_LIGHTS {
+            outln!("#   and {} more", n - LISTED_LIGHTS);
         }
     }
     // Which key the [[mesh]] needs, if any.
