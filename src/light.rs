@@ -72,7 +72,9 @@ pub struct AreaFace {
     /// How far beyond its edges, in units of `u` and of `v`, a ray still
     /// crosses the panel: [`AreaFace::rounding`]'s length, so that a ray
     /// through the edge two panels share (a lamp's triangles, whose corners
-    /// each makes again from its centre and edges) crosses one of them.
+    /// each makes again from its centre and edges) crosses one of them. A
+    /// sliver's (a corner sharper than [`SHARPEST`]) is less, or its sharp
+    /// corners would reach out by the rounding over the sine of their angle.
     margin: (f64, f64),
 }
 
@@ -90,6 +92,12 @@ impl AreaFace {
         a.abs() <= 0.5 + ma && b.abs() <= 0.5 + mb && (self.shape == Shape::Parallelogram || a + b <= ma + mb)
     }
 }
+
+/// The sine of the sharpest corner whose panel reaches over its edges by
+/// its rounding ([`AreaFace::margin`]); sharper ones' corners then reach
+/// out by at most its inverse times the rounding along each edge
+/// ([`Light::margin_reach`]).
+const SHARPEST: f64 = 1.0 / 16.0;
 
 /// The shape of an area light's panel, over its centre and edges `u` and `v`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -183,13 +191,15 @@ impl Light {
             margin: (0.0, 0.0),
         };
         let slack = face.rounding.as_dvec3().length();
+        let (lu, lv) = (face.length2.0.sqrt(), face.length2.1.sqrt());
         if whole > 0.0 && whole.is_finite() {
-            // A point moves `|v| / |u x v|` units of `u` (and `|u| / |u x
-            // v|` of `v`) per unit of distance across the edges.
-            face.margin = (slack * face.length2.1.sqrt() / whole, slack * face.length2.0.sqrt() / whole);
+            // A point moves `1 / (|u| sin)` units of `u` (and `1 / (|v|
+            // sin)` of `v`) per unit of distance across the edges.
+            let sin = (whole / (lu * lv)).max(SHARPEST);
+            face.margin = (slack / (lu * sin), slack / (lv * sin));
         }
         // A thousandth over, and the margin beyond.
-        let reach = (1.001 * face.half_diagonal2()).sqrt() + 2.0 * slack;
+        let reach = (1.001 * face.half_diagonal2()).sqrt() + 3.0 * slack / SHARPEST;
         if reach.is_finite() {
             face.reach2 = reach * reach;
         }
@@ -400,6 +410,16 @@ impl Light {
                     Shape::Triangle => Bounds::of(&corners[..3]),
                 }
             }
+        }
+    }
+
+    /// How far beyond its panel a ray may still cross an area light (its
+    /// margin for rounding, at a corner), at most
+    /// (zero for lights with no surface).
+    pub fn margin_reach(&self) -> f32 {
+        match self {
+            Light::Area { face, .. } => (2.0 * face.rounding.as_dvec3().length() / SHARPEST) as f32,
+            _ => 0.0,
         }
     }
 
@@ -838,5 +858,21 @@ mod tests {
             }
         }
         assert_eq!(missed, 0, "rays between the triangles");
+    }
+
+    /// A sliver of a triangle (a corner of a ten-thousandth of a degree)
+    /// is crossed where it lies and not beyond its sharp corners, which a
+    /// margin of the light's rounding across each edge would stretch by
+    /// that over the sine of the angle; nor far beyond its own rounding.
+    #[test]
+    fn a_sliver_is_crossed_where_it_lies_only() {
+        let (a, b, c) = (Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 2e-6));
+        let light = Light::triangle(a, b, c, Vec3::ONE);
+        let eye = Vec3::new(0.3, 0.0, 0.2);
+        let through = |p: Vec3| Ray { t_max: 2.0, ..Ray::new(eye, p - eye) };
+        assert!(light.crossing(&through(Vec3::new(0.5, 1.0, 5e-7))).is_some());
+        for beyond in [a - 1e-3 * (b - a), b + 1e-3 * (b - a), Vec3::new(0.5, 1.0, -1e-3)] {
+            assert!(light.crossing(&through(beyond)).is_none(), "{beyond}");
+        }
     }
 }

@@ -289,15 +289,15 @@ fn build(boxes: &[Bounds], order: &mut [u32], start: usize, end: usize, nodes: &
 /// The box around an area light's panel, padded by far more than the
 /// rounding of the point [`Light::crossing`] tests and the margin it
 /// allows (a ten-thousandth of the panel's size, a hundred-thousandth of
-/// its distance from the origin, twice its rounding):
+/// its distance from the origin, twice its margin's reach):
 /// a ray the test finds crossing the panel always enters the box.
 fn padded_box(light: &Light) -> Bounds {
     let Light::Area { u, v, .. } = *light else { return Bounds::EMPTY };
     let b = light.bounds();
-    // (And twice the rounding the panel's own test reaches over its edges by.)
+    // (And twice what the panel's own test reaches beyond it by.)
     let pad = 1e-4 * (u.abs() + v.abs()).max_element()
         + 1e-5 * b.min.abs().max(b.max.abs()).max_element()
-        + 2.0 * light.rounding_along(Vec3::ONE);
+        + 2.0 * light.margin_reach();
     Bounds { min: b.min - Vec3::splat(pad), max: b.max + Vec3::splat(pad) }
 }
 
