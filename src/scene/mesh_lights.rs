@@ -74,6 +74,14 @@ pub fn twice_in_one_place(declared: &[Light], from_meshes: &[(String, Light)]) -
         }
         _ => None,
     };
+    // The mesh lights by their centroids' x, so that a declared light
+    // looks only at those over its own span of x (a lamp may make a
+    // million lights, and a scene declare thousands).
+    let panels: Vec<_> = from_meshes.iter().map(|(_, light)| area(light)).collect();
+    let mut by_x: Vec<(f64, usize)> =
+        panels.iter().enumerate().filter_map(|(i, p)| Some((p.as_ref()?.0.x, i))).collect();
+    by_x.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    let largest = panels.iter().flatten().map(|(_, u, v)| u.length().max(v.length())).fold(0.0, f64::max);
     let mut warnings = Vec::new();
     for (k, (c2, u2, v2)) in declared.iter().enumerate().filter_map(|(k, l)| Some((k, area(l)?))) {
         let normal2 = u2.cross(v2).normalize();
@@ -91,9 +99,19 @@ pub fn twice_in_one_place(declared: &[Light], from_meshes: &[(String, Light)]) -
                 && a.abs() < 0.55
                 && b.abs() < 0.55
         };
-        let mut twice = from_meshes.iter().filter(|(_, light)| area(light).is_some_and(on_it));
-        let Some((first, _)) = twice.next() else { continue };
-        let more = match twice.count() {
+        // A centroid on the light (a twentieth of an edge over, and off
+        // its plane by a twentieth of the larger light's size) lies
+        // within this much of its centre along x.
+        let size2 = u2.length().max(v2.length());
+        let reach = 0.55 * (u2.x.abs() + v2.x.abs()) + 0.05 * largest.max(size2) * normal2.x.abs();
+        let from = by_x.partition_point(|&(x, _)| x < c2.x - reach);
+        let to = by_x.partition_point(|&(x, _)| x <= c2.x + reach);
+        let mut twice: Vec<usize> =
+            by_x[from..to].iter().map(|&(_, i)| i).filter(|&i| panels[i].is_some_and(on_it)).collect();
+        twice.sort_unstable();
+        let Some(&first) = twice.first() else { continue };
+        let first = &from_meshes[first].0;
+        let more = match twice.len() - 1 {
             0 => String::new(),
             n => format!(" (and {n} more of the mesh files' lights)"),
         };
@@ -350,6 +368,38 @@ mod tests {
         let (_, center2, u2, v2) = panels(&positions, Some(&down), &triangles)[1];
         assert!(u2.cross(v2).normalize().abs_diff_eq(DVec3::NEG_Y, 1e-12), "{}", u2.cross(v2));
         assert_eq!((center2 - 0.5 * (u2 + v2)), corner);
+    }
+
+    /// A mesh light on a declared one is found whatever the declared
+    /// light faces, off its plane by up to a twentieth of the larger
+    /// light's size (here along x, which the search goes by), and named
+    /// once with a count; lights elsewhere are not.
+    #[test]
+    fn lights_on_a_declared_light_are_said_once() {
+        // Declared: a wall light facing +x (u x v = y x z = x), 1 x 1.
+        let declared = [Light::area(Vec3::ZERO, Vec3::Y, Vec3::Z, Vec3::ONE)];
+        // Mesh lights facing +x: a big one 0.4 off the plane (a twentieth
+        // of its size 10 is 0.5), a small one on it, and two that are not:
+        // off by 0.6 with size 10, and beside it.
+        // A triangle facing +x of edges `size`, its centroid at (x, 0, z).
+        let panel = |x: f32, z: f32, size: f32| {
+            let (u, v) = (Vec3::Y * size, Vec3::Z * size);
+            Light::panel(Shape::Triangle, Vec3::new(x, 0.0, z) + (u + v) / 6.0, u, v, Vec3::ONE)
+        };
+        let from = |x: f32, z: f32, size: f32, name: &str| (name.to_string(), panel(x, z, size));
+        let meshes = [
+            from(0.6, 0.0, 10.0, "off too far"),
+            from(0.4, 0.0, 10.0, "big"),
+            from(0.0, 0.0, 0.1, "small"),
+            from(0.0, 3.0, 0.1, "beside"),
+        ];
+        let warnings = twice_in_one_place(&declared, &meshes);
+        assert_eq!(warnings.len(), 1, "{warnings:#?}");
+        assert!(
+            warnings[0].starts_with("big (and 1 more of the mesh files' lights) lies where"),
+            "{}",
+            warnings[0]
+        );
     }
 
     #[test]
