@@ -111,6 +111,22 @@ pub enum Shape {
     Triangle,
 }
 
+impl Shape {
+    /// How many triangles the panel is: 2 for a parallelogram, 1 for a
+    /// triangle (its area is this half of `|u x v|`).
+    pub fn triangles(self) -> usize {
+        match self {
+            Shape::Parallelogram => 2,
+            Shape::Triangle => 1,
+        }
+    }
+
+    /// The panel's area from `|u x v|`, its parallelogram's.
+    pub fn area(self, whole: f64) -> f64 {
+        0.5 * self.triangles() as f64 * whole
+    }
+}
+
 /// The point of a panel of `shape` that the uniform pair `s` picks, as
 /// `(a, b)` in units of its edges from its centre: uniform over its area.
 /// A triangle folds the square's far half onto its own (`1 - s`), which
@@ -178,7 +194,7 @@ impl Light {
     /// `u` and `v` ([`Shape`]), emitting `power` from the side `u x v` faces.
     pub fn panel(shape: Shape, center: Vec3, u: Vec3, v: Vec3, power: Vec3) -> Light {
         let whole = numeric::cross_length(u, v);
-        let area = if shape == Shape::Triangle { 0.5 * whole } else { whole };
+        let area = shape.area(whole);
         let mut face = AreaFace {
             normal: numeric::unit_cross(u, v).unwrap_or(Vec3::ZERO),
             area,

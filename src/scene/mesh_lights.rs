@@ -51,7 +51,7 @@ impl MeshLight {
         if !(whole > 0.0 && whole.is_finite()) {
             return None;
         }
-        let area = if self.shape == Shape::Triangle { 0.5 * whole } else { whole };
+        let area = self.shape.area(whole);
         let power = (self.radiance.as_dvec3() * std::f64::consts::PI * area).as_vec3();
         Some(Light::panel(self.shape, center, u.as_vec3(), v.as_vec3(), power))
     }

@@ -12,7 +12,6 @@ use super::mesh_lights::{self, MeshLight};
 use super::polygon::{self, Concave};
 use super::winding;
 use crate::error::{Error, Location, Result};
-use crate::light::Shape;
 use crate::material::Material;
 
 /// Which materials a mesh file's faces take.
@@ -193,7 +192,7 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
             // In the file's winding, before `winding::orient` may turn it.
             // All of it becomes lights, and leaves the mesh.
             let panels = mesh_lights::panels(&positions, normals.as_deref(), &indices);
-            let kept = panels.iter().map(|p| if p.0 == Shape::Triangle { 1 } else { 2 }).sum();
+            let kept = panels.iter().map(|p| p.0.triangles()).sum();
             let who = format!("{file_name}: object `{}`", model.name);
             warnings.extend(mesh::no_area_warning(&who, indices.len(), kept));
             lights.extend(panels.into_iter().map(|(shape, center, u, v)| MeshLight {
