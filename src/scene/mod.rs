@@ -9,6 +9,7 @@ mod file;
 pub mod mesh;
 pub mod mesh_lights;
 pub mod obj;
+mod obj_read;
 pub mod ply;
 pub mod polygon;
 pub mod shapes;

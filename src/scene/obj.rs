@@ -1,4 +1,5 @@
-//! Wavefront OBJ meshes through `tobj`, with MTL materials mapped onto ours.
+//! Wavefront OBJ meshes (read by `obj_read`, their MTL files by `tobj`),
+//! with MTL materials mapped onto ours.
 
 use std::borrow::Cow;
 use std::io::BufReader;
@@ -9,6 +10,7 @@ use glam::Vec3;
 
 use super::mesh::{self, FileNormals, Mesh};
 use super::mesh_lights::{self, MeshLight};
+use super::obj_read;
 use super::polygon::{self, Concave};
 use super::winding;
 use crate::error::{Error, Location, Result};
@@ -58,13 +60,12 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         MeshMaterials::All(id) => (Some(id), None),
         MeshMaterials::FromFile { fallback } => (None, fallback),
     };
-    // Polygons come whole: tobj would fan them, wrongly where concave
+    // Polygons come whole, to be cut where they are concave
     // (`polygon::triangulate`).
-    let options = tobj::LoadOptions { triangulate: false, single_index: true, ..Default::default() };
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mtl_file = std::cell::RefCell::new(None);
     let mtl_error = std::cell::RefCell::new(None);
-    let (models, mtl) = tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &options, |mtl_path| {
+    let obj_read::ObjText { models, materials: mtl, short_faces } = obj_read::read(&text, |mtl_path| {
         let mut merged: tobj::MTLLoadResult = Ok(Default::default());
         for file in mtl_files(&dir, mtl_path) {
             *mtl_file.borrow_mut() = Some(file.clone());
@@ -247,11 +248,10 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
         meshes.push(mesh);
     }
     warnings.extend(concave.warning().map(|w| format!("{file_name}: {w}")));
-    let short = short_faces(&text);
-    if let Some(&first) = short.first() {
+    if let Some(&first) = short_faces.first() {
         warnings.push(format!(
             "{file_name}: {} faces with fewer than 3 vertices were left out (the first on line {first})",
-            short.len()
+            short_faces.len()
         ));
     }
     Ok(ObjContents { meshes, materials, warnings, defaulted, lights })
@@ -265,7 +265,7 @@ pub(super) fn is_glass(materials: &[Material], id: usize) -> bool {
 
 /// The triangles of `mesh`'s faces: triangles as they are, polygons by
 /// [`polygon::triangulate`]; faces of fewer than three corners (points and
-/// lines) are left out ([`short_faces`] reports them).
+/// lines) are left out (`obj_read` tells where, as `short_faces`).
 fn triangles(positions: &[Vec3], mesh: &tobj::Mesh, concave: &mut Concave) -> Vec<[u32; 3]> {
     if mesh.face_arities.is_empty() {
         return mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
@@ -446,11 +446,6 @@ fn first_non_finite_vertex(text: &str) -> Option<(usize, usize)> {
         let finite = words.take(3).all(|w| w.parse::<f32>().is_ok_and(f32::is_finite));
         (!finite).then_some((line, number + 1))
     })
-}
-
-/// Lines of `f` statements that name fewer than three vertices (tobj drops them).
-fn short_faces(text: &str) -> Vec<usize> {
-    statements(text, "f").filter(|(_, words)| words.clone().count() < 3).map(|(line, _)| line).collect()
 }
 
 /// The file's statements of one `kind` (`v`, `f`, ...): each one's line
