@@ -8,11 +8,14 @@
 //! file's load (BENCHMARKS.md, "OBJ files read in parallel"). Here the
 //! file is cut into chunks at line ends and read in three steps:
 //!
-//! 1. each chunk counts its `v`, `vt` and `vn` statements (so that a face's
-//!    relative index, `-1` for the last vertex so far, resolves where it
-//!    is read);
-//! 2. each chunk reads its numbers and faces, and notes the statements that
-//!    start objects or name materials where they come among its faces;
+//! 1. each chunk counts its lines, `v`, `vt` and `vn` statements, faces
+//!    and their corners: so that a face's relative index (`-1` for the
+//!    last vertex so far) resolves where it is read, and each chunk knows
+//!    where in the file's arrays its numbers and faces go (allocated once:
+//!    grown as read, their copies and fresh pages were a third of the time);
+//! 2. each chunk reads its numbers and faces into its parts of those
+//!    arrays, and notes where among the faces come the statements that
+//!    start objects or name materials;
 //! 3. one walk over those statements, in the file's order, loads the MTL
 //!    files as `mtllib` names them, resolves `usemtl`, and cuts the faces
 //!    into objects where tobj does (a new name or material after faces);
@@ -24,6 +27,7 @@
 //! kept (the meshes' `texcoords` and `vertex_color` stay empty).
 
 use std::collections::HashMap;
+use std::ops::Range;
 use std::path::Path;
 
 use rayon::prelude::*;
@@ -37,12 +41,12 @@ const CHUNK_BYTES: usize = 1 << 18;
 const MISSING: u32 = u32::MAX;
 
 /// A face corner's index outside what a `u32` holds, or below 0 (`-5` with
-/// three vertices read): never valid. Its exact value is kept beside the
-/// chunk ([`Chunk::out_of_range`]), for it still tells vertices apart
-/// where the file has no texture coordinates or normals to check it against.
+/// three vertices read): never valid. Its exact value is kept beside
+/// ([`Read::out_of_range`]), for it still tells vertices apart where the
+/// file has no texture coordinates or normals to check it against.
 const OUT_OF_RANGE: u32 = u32::MAX - 1;
 
-/// Statements read so far, of each kind that faces index, and lines.
+/// Statements read so far, of each kind, and lines.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 struct Counts {
     /// Lines (as `str::lines` counts them).
@@ -53,7 +57,11 @@ struct Counts {
     vt: usize,
     /// `vn`: normals.
     vn: usize,
-    /// Vertex colour numbers (three a coloured `v`, fewer where one fails).
+    /// `f` and `l` statements, and their corners.
+    faces: usize,
+    corners: usize,
+    /// Vertex colour numbers (three a coloured `v`, fewer where one fails;
+    /// counted as read, not in the first count).
     colors: usize,
 }
 
@@ -64,6 +72,8 @@ impl Counts {
             v: self.v + other.v,
             vt: self.vt + other.vt,
             vn: self.vn + other.vn,
+            faces: self.faces + other.faces,
+            corners: self.corners + other.corners,
             colors: self.colors + other.colors,
         }
     }
@@ -80,40 +90,81 @@ enum Statement {
     MaterialLibrary(String),
 }
 
-/// A [`Statement`], and where among its chunk's faces it comes.
+/// A [`Statement`], and the statements of each kind in the file before it
+/// (so where among the faces it comes).
 #[derive(Debug)]
 struct Event {
     statement: Statement,
-    /// The chunk's faces and corners before it.
-    faces: usize,
-    corners: usize,
-    /// The chunk's statements of each kind before it.
-    counts: Counts,
+    before: Counts,
 }
 
-/// What a chunk of the file holds.
-#[derive(Debug, Default)]
-struct Chunk {
+/// The file's arrays, each chunk's part of them filled by that chunk.
+struct Arrays {
     /// Three numbers a `v`, after any `w` divided them.
     positions: Vec<f32>,
     /// Three numbers a `vn`.
     normals: Vec<f32>,
     /// Each face's corners: position, texture coordinate and normal, as
-    /// indices into the whole file's, or [`MISSING`] or [`OUT_OF_RANGE`].
+    /// indices from 0, or [`MISSING`] or [`OUT_OF_RANGE`].
     corners: Vec<[u32; 3]>,
     /// How many corners each face has (`f` and `l` alike, as tobj reads them).
     arities: Vec<u32>,
+}
+
+/// A chunk's parts of the [`Arrays`].
+struct Parts<'a> {
+    positions: &'a mut [f32],
+    normals: &'a mut [f32],
+    corners: &'a mut [[u32; 3]],
+    arities: &'a mut [u32],
+}
+
+impl Arrays {
+    /// Arrays for a file of `total` statements (zeroed: their pages are
+    /// first touched where a chunk writes them).
+    fn new(total: Counts) -> Arrays {
+        Arrays {
+            positions: vec![0.0; 3 * total.v],
+            normals: vec![0.0; 3 * total.vn],
+            corners: vec![[0; 3]; total.corners],
+            arities: vec![0; total.faces],
+        }
+    }
+
+    /// Each chunk's parts, for chunks of `counts` statements.
+    fn parts(&mut self, counts: &[Counts]) -> Vec<Parts<'_>> {
+        let (mut positions, mut normals) = (&mut self.positions[..], &mut self.normals[..]);
+        let (mut corners, mut arities) = (&mut self.corners[..], &mut self.arities[..]);
+        let mut parts = Vec::with_capacity(counts.len());
+        for c in counts {
+            let (p, rest) = std::mem::take(&mut positions).split_at_mut(3 * c.v);
+            positions = rest;
+            let (n, rest) = std::mem::take(&mut normals).split_at_mut(3 * c.vn);
+            normals = rest;
+            let (k, rest) = std::mem::take(&mut corners).split_at_mut(c.corners);
+            corners = rest;
+            let (a, rest) = std::mem::take(&mut arities).split_at_mut(c.faces);
+            arities = rest;
+            parts.push(Parts { positions: p, normals: n, corners: k, arities: a });
+        }
+        parts
+    }
+}
+
+/// What a chunk's reading found beside its parts of the [`Arrays`].
+#[derive(Debug, Default)]
+struct Read {
     /// The corners holding an [`OUT_OF_RANGE`] index, by their place in
-    /// `corners`, with the indices they gave (as tobj's wrapped `usize`).
+    /// the file's corners, with the indices they gave (as tobj's wrapped
+    /// `usize`).
     out_of_range: Vec<(usize, [u64; 3])>,
     events: Vec<Event>,
-    /// The lines (from 1, in the whole file) of its `f` statements of
-    /// fewer than three corners.
+    /// The lines (from 1) of its `f` statements of fewer than three corners.
     short_faces: Vec<usize>,
-    /// Its statements of each kind, all told.
+    /// Its statements of each kind, as read (with the colours).
     counts: Counts,
-    /// The error of the first statement it could not read, and that
-    /// statement's place among its events (those before it are good).
+    /// The error of the first statement it could not read (the events
+    /// before it are good).
     error: Option<LoadError>,
 }
 
@@ -147,16 +198,17 @@ fn read_in_chunks(
 ) -> Result<ObjText, LoadError> {
     let chunks = cut(text, chunk_bytes);
     let counted: Vec<Counts> = chunks.par_iter().map(|chunk| count(chunk)).collect();
-    let (before, _) = running_totals(counted.into_iter());
-    let read: Vec<Chunk> =
-        chunks.par_iter().zip(&before).map(|(text, &before)| read_chunk(text, before)).collect();
-    // Again with the colours, which only reading counts (the rest the same
-    // up to a chunk that stopped, where the walk stops).
-    let (before, total) = running_totals(read.iter().map(|chunk| chunk.counts));
-    let Walked { objects, materials, stopped } = walk(&read, &before, total, load_materials);
-    let positions = joined(&read, |chunk| &chunk.positions);
-    let normals = joined(&read, |chunk| &chunk.normals);
-    let all = All { chunks: &read, positions: &positions, normals: &normals };
+    let (before, total) = running_totals(counted.iter().copied());
+    let mut arrays = Arrays::new(total);
+    let read: Vec<Read> = (chunks.par_iter().zip(&before))
+        .zip(arrays.parts(&counted))
+        .map(|((text, &before), parts)| read_chunk(text, before, parts))
+        .collect();
+    let Walked { objects, materials, stopped } = walk(&read, &before, &counted, load_materials);
+
+    let out_of_range: Vec<(usize, [u64; 3])> =
+        read.iter().flat_map(|r| r.out_of_range.iter().copied()).collect();
+    let all = All { arrays: &arrays, out_of_range: &out_of_range };
     let meshes: Vec<Result<Mesh, LoadError>> = objects.par_iter().map(|object| all.mesh(object)).collect();
     let mut models = Vec::with_capacity(objects.len());
     for (object, mesh) in objects.into_iter().zip(meshes) {
@@ -165,7 +217,7 @@ fn read_in_chunks(
     if let Some(index) = stopped {
         return Err(read[index].error.expect("the chunk that stopped has an error"));
     }
-    let short_faces = read.iter().flat_map(|chunk| &chunk.short_faces).copied().collect();
+    let short_faces = read.iter().flat_map(|r| &r.short_faces).copied().collect();
     Ok(ObjText { models, materials: materials.into_result(), short_faces })
 }
 
@@ -192,39 +244,38 @@ struct Walked {
     stopped: Option<usize>,
 }
 
-/// Walks over the statements of the chunks `read` (of which `before[i]`
-/// come before chunk `i`, and `total` in all), in the file's order: loads
+/// Walks over the statements the chunks `read` (of which `before[i]` come
+/// before chunk `i`, and it holds `counted[i]`), in the file's order: loads
 /// the MTL files as `mtllib` names them, and cuts the faces into objects
 /// where tobj does, at a new name or material after faces; stops at the
 /// first chunk that could not be read whole.
 fn walk(
-    read: &[Chunk],
+    read: &[Read],
     before: &[Counts],
-    total: Counts,
+    counted: &[Counts],
     mut load_materials: impl FnMut(&Path) -> MTLLoadResult,
 ) -> Walked {
     let mut materials = Materials::default();
     let mut objects: Vec<Object> = Vec::new();
-    let mut current = Object::new("unnamed_object".to_owned(), None);
+    let mut current = Object::new("unnamed_object".to_owned(), None, Counts::default());
+    // (The colours only reading counts.)
+    let mut colors = 0;
     for (index, chunk) in read.iter().enumerate() {
-        let mut from = (0, 0);
         for event in &chunk.events {
-            current.take(index, from, (event.faces, event.corners));
-            from = (event.faces, event.corners);
-            let counts = before[index].plus(event.counts);
+            let at = Counts { colors: colors + event.before.colors, ..before[index].plus(event.before) };
             match &event.statement {
                 Statement::Name(name) => {
-                    if current.has_faces() {
-                        let next = Object::new(String::new(), current.material);
-                        objects.push(std::mem::replace(&mut current, next).ended(counts));
+                    if current.has_faces(at) {
+                        let next = Object::new(String::new(), current.material, at);
+                        objects.push(std::mem::replace(&mut current, next).ended(at));
                     }
                     current.name.clone_from(name);
                 }
                 Statement::UseMaterial(name) => {
                     let material = materials.named(name);
-                    if current.material != material && current.has_faces() {
-                        let next = Object::new(current.name.clone(), material);
-                        objects.push(std::mem::replace(&mut current, next).ended(counts));
+                    if current.material != material && current.has_faces(at) {
+                        let next = Object::new(current.name.clone(), material, at);
+                        objects.push(std::mem::replace(&mut current, next).ended(at));
                     }
                     current.material = material;
                 }
@@ -234,9 +285,10 @@ fn walk(
         if chunk.error.is_some() {
             return Walked { objects, materials, stopped: Some(index) };
         }
-        current.take(index, from, (chunk.arities.len(), chunk.corners.len()));
+        colors += chunk.counts.colors;
     }
-    objects.push(current.ended(total));
+    let end = before.last().zip(counted.last()).map_or_else(Counts::default, |(b, c)| b.plus(*c));
+    objects.push(current.ended(Counts { colors, ..end }));
     Walked { objects, materials, stopped: None }
 }
 
@@ -262,48 +314,59 @@ fn cut(text: &str, bytes: usize) -> Vec<&str> {
     chunks
 }
 
-/// The lines and the `v`, `vt` and `vn` statements of a chunk (vertex
-/// colours are counted as they are read).
+/// The lines, `v`, `vt` and `vn` statements, and faces and their corners
+/// of a chunk (vertex colours are counted as they are read).
 fn count(text: &str) -> Counts {
     let mut counts = Counts::default();
     for line in text.lines() {
         counts.lines += 1;
-        match Words::of(line).next().map(keyword) {
+        let mut words = Words::of(line);
+        match words.next().map(keyword) {
             Some(Keyword::Position) => counts.v += 1,
             Some(Keyword::TextureCoordinate) => counts.vt += 1,
             Some(Keyword::Normal) => counts.vn += 1,
+            Some(Keyword::Face | Keyword::Line) => {
+                counts.faces += 1;
+                counts.corners += words.count();
+            }
             _ => {}
         }
     }
     counts
 }
 
-/// Reads a chunk whose statements (and lines) come after `before` of each kind.
-fn read_chunk(text: &str, before: Counts) -> Chunk {
-    let mut chunk = Chunk::default();
+/// Reads a chunk whose statements (and lines) come after `before` of each
+/// kind into its `parts` of the file's arrays.
+fn read_chunk(text: &str, before: Counts, mut parts: Parts) -> Read {
+    let mut read = Read::default();
     for (i, line) in text.lines().enumerate() {
-        if let Err(e) = read_line(line, before.lines + i + 1, before, &mut chunk) {
-            chunk.error = Some(e);
+        if let Err(e) = read_line(line, before.lines + i + 1, before, &mut parts, &mut read) {
+            read.error = Some(e);
             break;
         }
     }
-    chunk
+    read
 }
 
-/// Reads one line, line `number` of the file, into `chunk`, as tobj's
-/// `parse_obj_line` reads it.
-fn read_line(line: &str, number: usize, before: Counts, chunk: &mut Chunk) -> Result<(), LoadError> {
+/// Reads one line, line `number` of the file, into `parts` (where `read`
+/// counts) and `read`, as tobj's `parse_obj_line` reads it.
+fn read_line(
+    line: &str,
+    number: usize,
+    before: Counts,
+    parts: &mut Parts,
+    read: &mut Read,
+) -> Result<(), LoadError> {
     let mut words = Words::of(line);
-    let event = |chunk: &mut Chunk, statement| {
-        let (faces, corners, counts) = (chunk.arities.len(), chunk.corners.len(), chunk.counts);
-        chunk.events.push(Event { statement, faces, corners, counts });
-    };
     let Some(first_word) = words.next() else { return Ok(()) };
+    let counts = &mut read.counts;
+    let mut event = |statement, counts: Counts| read.events.push(Event { statement, before: counts });
     match keyword(first_word) {
         Keyword::Position => {
             let p: [f32; 3] = numbers(&mut words).ok_or(LoadError::PositionParseError)?;
-            chunk.positions.extend_from_slice(&p);
-            chunk.counts.v += 1;
+            let position = &mut parts.positions[3 * counts.v..3 * counts.v + 3];
+            position.copy_from_slice(&p);
+            counts.v += 1;
             // Then nothing, `w` (dividing the three), or a colour.
             let Some(first) = words.next() else { return Ok(()) };
             match (words.next(), words.next()) {
@@ -312,8 +375,7 @@ fn read_line(line: &str, number: usize, before: Counts, chunk: &mut Chunk) -> Re
                     if w == 0.0 {
                         return Err(LoadError::ScalingByZeroError);
                     }
-                    let at = chunk.positions.len() - 3;
-                    chunk.positions[at..].iter_mut().for_each(|c| *c /= w);
+                    position.iter_mut().for_each(|c| *c /= w);
                 }
                 (Some(_), None) => return Err(LoadError::ColorParseError),
                 (Some(second), Some(third)) => {
@@ -321,56 +383,55 @@ fn read_line(line: &str, number: usize, before: Counts, chunk: &mut Chunk) -> Re
                         return Err(LoadError::ColorParseError);
                     }
                     // As tobj: the numbers up to the first that is none.
-                    chunk.counts.colors +=
+                    counts.colors +=
                         [first, second, third].iter().take_while(|w| w.parse::<f32>().is_ok()).count();
                 }
             }
         }
         Keyword::TextureCoordinate => {
             let _: [f32; 2] = numbers(&mut words).ok_or(LoadError::TexcoordParseError)?;
-            chunk.counts.vt += 1;
+            counts.vt += 1;
         }
         Keyword::Normal => {
             let n: [f32; 3] = numbers(&mut words).ok_or(LoadError::NormalParseError)?;
-            chunk.normals.extend_from_slice(&n);
-            chunk.counts.vn += 1;
+            parts.normals[3 * counts.vn..3 * counts.vn + 3].copy_from_slice(&n);
+            counts.vn += 1;
         }
         kind @ (Keyword::Face | Keyword::Line) => {
-            let so_far = before.plus(chunk.counts);
-            let start = chunk.corners.len();
+            let so_far = before.plus(*counts);
+            let start = counts.corners;
             for word in words {
-                let Some((corner, exact)) = corner(word, so_far) else {
-                    chunk.corners.truncate(start);
-                    return Err(LoadError::FaceParseError);
-                };
+                let (corner, exact) = corner(word, so_far).ok_or(LoadError::FaceParseError)?;
                 if corner.contains(&OUT_OF_RANGE) {
-                    chunk.out_of_range.push((chunk.corners.len(), exact));
+                    read.out_of_range.push((before.corners + counts.corners, exact));
                 }
-                chunk.corners.push(corner);
+                parts.corners[counts.corners] = corner;
+                counts.corners += 1;
             }
-            let arity = chunk.corners.len() - start;
+            let arity = counts.corners - start;
             if kind == Keyword::Face && arity < 3 {
-                chunk.short_faces.push(number);
+                read.short_faces.push(number);
             }
-            chunk.arities.push(arity as u32);
+            parts.arities[counts.faces] = arity as u32;
+            counts.faces += 1;
         }
         Keyword::Object => {
             // (As tobj: all after the line's first character, trimmed.)
             let first = line.chars().next().map_or(0, char::len_utf8);
             let name = line[first..].trim();
             let name = if name.is_empty() { "unnamed_object" } else { name };
-            event(chunk, Statement::Name(name.to_owned()));
+            event(Statement::Name(name.to_owned()), *counts);
         }
         Keyword::MaterialLibrary => {
             let path = line.split_once(' ').unwrap_or_default().1.trim();
-            event(chunk, Statement::MaterialLibrary(path.to_owned()));
+            event(Statement::MaterialLibrary(path.to_owned()), *counts);
         }
         Keyword::UseMaterial => {
             let name = line.split_once(' ').unwrap_or_default().1.trim();
             if name.is_empty() {
                 return Err(LoadError::MaterialParseError);
             }
-            event(chunk, Statement::UseMaterial(name.to_owned()));
+            event(Statement::UseMaterial(name.to_owned()), *counts);
         }
         Keyword::Other => {}
     }
@@ -538,45 +599,35 @@ impl Materials {
     }
 }
 
-/// One object's faces, as parts of chunks, with its name and material.
+/// One object: a run of the file's faces, with its name and material.
 struct Object {
     name: String,
     material: Option<usize>,
-    /// (chunk, faces, corners) ranges, in order.
-    parts: Vec<(usize, std::ops::Range<usize>, std::ops::Range<usize>)>,
+    /// Its faces, and their corners.
+    faces: Range<usize>,
+    corners: Range<usize>,
     /// The statements of each kind read when it ended.
     ended_at: Counts,
 }
 
 impl Object {
-    fn new(name: String, material: Option<usize>) -> Object {
-        Object { name, material, parts: Vec::new(), ended_at: Counts::default() }
+    /// An object of `name` and `material` whose faces start after `at`.
+    fn new(name: String, material: Option<usize>, at: Counts) -> Object {
+        Object { name, material, faces: at.faces..at.faces, corners: at.corners..at.corners, ended_at: at }
     }
 
-    /// Adds chunk `chunk`'s faces and corners from `from` up to `to`.
-    fn take(&mut self, chunk: usize, from: (usize, usize), to: (usize, usize)) {
-        if to.0 > from.0 {
-            self.parts.push((chunk, from.0..to.0, from.1..to.1));
-        }
+    /// Whether it has faces up to `at`.
+    fn has_faces(&self, at: Counts) -> bool {
+        at.faces > self.faces.start
     }
 
-    fn has_faces(&self) -> bool {
-        !self.parts.is_empty()
-    }
-
-    fn ended(mut self, counts: Counts) -> Object {
-        self.ended_at = counts;
+    /// The object ended at `at`.
+    fn ended(mut self, at: Counts) -> Object {
+        self.faces.end = at.faces;
+        self.corners.end = at.corners;
+        self.ended_at = at;
         self
     }
-}
-
-/// The chunks' `f32`s of one kind, in one list.
-fn joined(chunks: &[Chunk], of: impl Fn(&Chunk) -> &Vec<f32>) -> Vec<f32> {
-    let mut all = Vec::with_capacity(chunks.iter().map(|c| of(c).len()).sum());
-    for chunk in chunks {
-        all.extend_from_slice(of(chunk));
-    }
-    all
 }
 
 /// An object's vertices, numbered in the order of their first use: a
@@ -639,11 +690,10 @@ impl Numbering {
     }
 }
 
-/// The whole file's chunks, positions and normals.
+/// The file's arrays, and the exact indices of corners out of range.
 struct All<'a> {
-    chunks: &'a [Chunk],
-    positions: &'a [f32],
-    normals: &'a [f32],
+    arrays: &'a Arrays,
+    out_of_range: &'a [(usize, [u64; 3])],
 }
 
 impl All<'_> {
@@ -652,41 +702,29 @@ impl All<'_> {
     /// index beyond what had been read when the object ended.
     fn mesh(&self, object: &Object) -> Result<Mesh, LoadError> {
         let counts = object.ended_at;
-        let used =
-            || object.parts.iter().flat_map(|(c, _, corners)| &self.chunks[*c].corners[corners.clone()]);
-        let mut numbering = Numbering::new(used().map(|c| c[0]).filter(|&v| (v as usize) < counts.v));
+        let corners = &self.arrays.corners[object.corners.clone()];
+        let mut numbering = Numbering::new(corners.iter().map(|c| c[0]).filter(|&v| (v as usize) < counts.v));
         let mut mesh = Mesh { material_id: object.material, ..Default::default() };
-        let mut all_triangles = true;
-        for (c, faces, corners) in &object.parts {
-            let chunk = &self.chunks[*c];
-            let mut at = corners.start;
-            for &arity in &chunk.arities[faces.clone()] {
-                for i in at..at + arity as usize {
-                    let corner = chunk.corners[i];
-                    let v = corner[0];
-                    let exact = || match chunk.out_of_range.binary_search_by_key(&i, |&(at, _)| at) {
-                        Ok(k) => chunk.out_of_range[k].1,
-                        Err(_) => corner.map(|i| if i == MISSING { u64::MAX } else { u64::from(i) }),
-                    };
-                    if v as usize >= counts.v {
-                        return Err(LoadError::FaceVertexOutOfBounds);
-                    }
-                    let index = match numbering.find(corner, exact) {
-                        Some(index) => index,
-                        None => {
-                            self.add_vertex(&mut mesh, corner, counts)?;
-                            numbering.add(corner, exact)
-                        }
-                    };
-                    mesh.indices.push(index);
-                }
-                at += arity as usize;
-                all_triangles &= arity == 3;
-                mesh.face_arities.push(arity);
+        for (i, &corner) in object.corners.clone().zip(corners) {
+            let exact = || match self.out_of_range.binary_search_by_key(&i, |&(at, _)| at) {
+                Ok(k) => self.out_of_range[k].1,
+                Err(_) => corner.map(|i| if i == MISSING { u64::MAX } else { u64::from(i) }),
+            };
+            if corner[0] as usize >= counts.v {
+                return Err(LoadError::FaceVertexOutOfBounds);
             }
+            let index = match numbering.find(corner, exact) {
+                Some(index) => index,
+                None => {
+                    self.add_vertex(&mut mesh, corner, counts)?;
+                    numbering.add(corner, exact)
+                }
+            };
+            mesh.indices.push(index);
         }
-        if all_triangles {
-            mesh.face_arities = Vec::new();
+        let arities = &self.arrays.arities[object.faces.clone()];
+        if arities.iter().any(|&a| a != 3) {
+            mesh.face_arities = arities.to_vec();
         }
         Ok(mesh)
     }
@@ -696,7 +734,7 @@ impl All<'_> {
     /// or colour is checked only, where the file has them.
     fn add_vertex(&self, mesh: &mut Mesh, [v, vt, vn]: [u32; 3], counts: Counts) -> Result<(), LoadError> {
         let v = v as usize;
-        mesh.positions.extend_from_slice(&self.positions[3 * v..3 * v + 3]);
+        mesh.positions.extend_from_slice(&self.arrays.positions[3 * v..3 * v + 3]);
         if counts.vt > 0 && vt != MISSING && vt as usize >= counts.vt {
             return Err(LoadError::FaceTexCoordOutOfBounds);
         }
@@ -705,7 +743,7 @@ impl All<'_> {
             if vn >= counts.vn {
                 return Err(LoadError::FaceNormalOutOfBounds);
             }
-            mesh.normals.extend_from_slice(&self.normals[3 * vn..3 * vn + 3]);
+            mesh.normals.extend_from_slice(&self.arrays.normals[3 * vn..3 * vn + 3]);
         }
         if counts.colors > 0 && 3 * v + 2 >= counts.colors {
             return Err(LoadError::FaceColorOutOfBounds);
@@ -826,6 +864,7 @@ mod tests {
             // `w`, colours, and the colours' check.
             "v 2 4 6 2\nv 1 0 0 1 0.5 0.25\nv 0 1 0 1 1 1\nf 1 2 3\n",
             "v 0 0 0 1 1 1\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+            "v 0 0 0 1 1 1\nv 1 0 0\nv 0 1 0\nf 1 2 3\no next\nf 1 1 1\n",
             // Forward references within an object, and past its end.
             "f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n",
             "f 1 2 3\no next\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
