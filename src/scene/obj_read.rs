@@ -24,7 +24,10 @@
 //!
 //! What tobj keeps and caustix does not use is read for its errors only:
 //! texture coordinates and vertex colours are counted and checked, not
-//! kept (the meshes' `texcoords` and `vertex_color` stay empty).
+//! kept (the meshes' `texcoords` and `vertex_color` stay empty). One
+//! difference on purpose: a texture coordinate or normal index below about
+//! -4.6e18, where tobj's index arithmetic wraps around and may read some
+//! other entry, is out of bounds here.
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -204,7 +207,7 @@ fn read_in_chunks(
         .zip(arrays.parts(&counted))
         .map(|((text, &before), parts)| read_chunk(text, before, parts))
         .collect();
-    let Walked { objects, materials, stopped } = walk(&read, &before, &counted, load_materials);
+    let Walked { objects, materials, stopped } = walk(&read, &before, total, load_materials);
 
     let out_of_range: Vec<(usize, [u64; 3])> =
         read.iter().flat_map(|r| r.out_of_range.iter().copied()).collect();
@@ -245,14 +248,14 @@ struct Walked {
 }
 
 /// Walks over the statements the chunks `read` (of which `before[i]` come
-/// before chunk `i`, and it holds `counted[i]`), in the file's order: loads
+/// before chunk `i`, and `total` in all), in the file's order: loads
 /// the MTL files as `mtllib` names them, and cuts the faces into objects
 /// where tobj does, at a new name or material after faces; stops at the
 /// first chunk that could not be read whole.
 fn walk(
     read: &[Read],
     before: &[Counts],
-    counted: &[Counts],
+    total: Counts,
     mut load_materials: impl FnMut(&Path) -> MTLLoadResult,
 ) -> Walked {
     let mut materials = Materials::default();
@@ -287,8 +290,7 @@ fn walk(
         }
         colors += chunk.counts.colors;
     }
-    let end = before.last().zip(counted.last()).map_or_else(Counts::default, |(b, c)| b.plus(*c));
-    objects.push(current.ended(Counts { colors, ..end }));
+    objects.push(current.ended(Counts { colors, ..total }));
     Walked { objects, materials, stopped: None }
 }
 
