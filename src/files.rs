@@ -6,7 +6,7 @@
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Location, Result};
 
 /// The largest scene or patch file read as text: far beyond any scene
 /// written by hand (meshes go in OBJ or PLY files).
@@ -24,6 +24,13 @@ pub fn check_regular(path: &Path) -> Result<()> {
 
 /// The text of the regular file at `path`, refused beyond `limit` bytes.
 pub fn read_text(path: &Path, limit: u64) -> Result<String> {
+    String::from_utf8(read_bytes(path, limit)?).map_err(|e| {
+        Error::input_at(path, first_not_utf8(e.as_bytes()), "not UTF-8 text: is this a binary file?")
+    })
+}
+
+/// The bytes of the regular file at `path`, refused beyond `limit`.
+pub fn read_bytes(path: &Path, limit: u64) -> Result<Vec<u8>> {
     check_regular(path)?;
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let mut bytes = Vec::new();
@@ -34,14 +41,41 @@ pub fn read_text(path: &Path, limit: u64) -> Result<String> {
             format!("larger than {} MiB: not a scene file? (meshes belong in OBJ or PLY files)", limit >> 20),
         ));
     }
-    String::from_utf8(bytes).map_err(|e| {
-        let location = crate::error::Location::from_offset(
-            // The valid part, for the line and column of the first bad byte.
-            std::str::from_utf8(&e.as_bytes()[..e.utf8_error().valid_up_to()]).unwrap_or(""),
-            e.utf8_error().valid_up_to(),
-        );
-        Error::input_at(path, location, "not UTF-8 text: is this a binary file?")
-    })
+    Ok(bytes)
+}
+
+/// Where in `bytes` the first byte that is not UTF-8 lies (their end if none).
+fn first_not_utf8(bytes: &[u8]) -> Location {
+    let valid = std::str::from_utf8(bytes).map_or_else(|e| e.valid_up_to(), |_| bytes.len());
+    // (The valid part gives the line and column.)
+    Location::from_offset(std::str::from_utf8(&bytes[..valid]).unwrap_or(""), valid)
+}
+
+/// The text of a mesh file's (OBJ or MTL) `bytes`, read from `path`: as
+/// UTF-8, or, where it is not, each byte as its Latin-1 (ISO 8859-1)
+/// character, as older exporters on Windows wrote names and comments
+/// (`Café` as one byte `0xe9`); then also a warning that says so, and
+/// where. A file with a zero byte is binary, not text: an error at its line.
+pub fn text_or_latin1(path: &Path, bytes: Vec<u8>) -> Result<(String, Option<String>)> {
+    let bytes = match String::from_utf8(bytes) {
+        Ok(text) => return Ok((text, None)),
+        Err(e) => e.into_bytes(),
+    };
+    let at = first_not_utf8(&bytes);
+    if let Some(zero) = bytes.iter().position(|&b| b == 0) {
+        let before: String = bytes[..zero].iter().map(|&b| char::from(b)).collect();
+        let location = Location::from_offset(&before, before.len());
+        return Err(Error::input_at(path, location, "not text (a zero byte): is this a binary file?"));
+    }
+    let text = bytes.iter().map(|&b| char::from(b)).collect();
+    let warning = format!(
+        "{}: not UTF-8 text (the first such byte on line {}, column {}); read as Latin-1 (ISO 8859-1), as \
+         older exporters wrote it",
+        path.display(),
+        at.line,
+        at.column
+    );
+    Ok((text, Some(warning)))
 }
 
 /// Checks, before any work, that `path` can be written: its folder exists

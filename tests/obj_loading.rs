@@ -4,7 +4,7 @@
 mod common;
 
 use caustix::scene::Scene;
-use common::{write, QUAD_SCENE};
+use common::{write, write_bytes, QUAD_SCENE};
 use glam::Vec3;
 
 /// An OBJ file of one triangle per material of `mtl`, each its own object
@@ -55,6 +55,35 @@ fn mtl_materials_map_onto_ours() {
     assert_eq!(scene.warnings.len(), 2, "{:?}", scene.warnings);
     assert!(scene.warnings[0].contains("things.obj:hot"));
     assert!(scene.warnings[1].contains("object `water`: 1 of its 1 glass triangles have an edge"));
+}
+
+/// OBJ and MTL files that are not UTF-8 (older exporters on Windows wrote
+/// names in Latin-1) load, their names read as Latin-1, with a warning for
+/// each file that says where; a zero byte is a binary file, an error at
+/// its line.
+#[test]
+fn latin1_files_load_and_binary_ones_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write_bytes(dir.path(), "latin.mtl", b"# caf\xe9\nnewmtl caf\xe9\nKd 0.5 0.25 0.125\n");
+    let obj = b"mtllib latin.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\no pi\xe8ce\nusemtl caf\xe9\nf 1 2 3\n";
+    write_bytes(dir.path(), "latin.obj", obj);
+    let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"latin.obj\"\n");
+    let scene = Scene::load(&write(dir.path(), "s.toml", &text)).unwrap();
+    let mesh =
+        scene.meshes.iter().find(|m| m.name == "latin.obj:pièce").expect("the object, by its Latin-1 name");
+    assert_eq!(scene.materials[mesh.material].name, "latin.obj:café");
+    assert_eq!(scene.materials[mesh.material].diffuse, Vec3::new(0.5, 0.25, 0.125));
+    let said = |file: &str, at: &str| {
+        scene.warnings.iter().filter(|w| w.contains(file) && w.contains(at) && w.contains("Latin-1")).count()
+    };
+    assert_eq!(said("latin.obj", "line 5, column 5"), 1, "{:#?}", scene.warnings);
+    assert_eq!(said("latin.mtl", "line 1, column 6"), 1, "{:#?}", scene.warnings);
+    assert_eq!(scene.warnings.len(), 2, "{:#?}", scene.warnings);
+
+    write_bytes(dir.path(), "binary.obj", b"v 0 0 0\nv 1 0 0\x00\xff\n");
+    let text = format!("{QUAD_SCENE}\n[[mesh]]\nfile = \"binary.obj\"\nmaterial = \"white\"\n");
+    let err = Scene::load(&write(dir.path(), "b.toml", &text)).unwrap_err().to_string();
+    assert!(err.contains("binary.obj:2:") && err.contains("binary file"), "{err}");
 }
 
 /// What an MTL file asks for that is not read (texture maps, statements

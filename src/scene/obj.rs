@@ -53,7 +53,9 @@ pub struct ObjContents {
 pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) -> Result<ObjContents> {
     let first_material = scene_materials.len();
     crate::files::check_regular(path)?;
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let (text, latin1) = crate::files::text_or_latin1(path, bytes)?;
+    let mut warnings: Vec<String> = latin1.into_iter().collect();
     let text = logical_lines(&text);
     // The material of every face, or of those the file gives none.
     let (material_override, fallback) = match choice {
@@ -65,11 +67,17 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mtl_file = std::cell::RefCell::new(None);
     let mtl_error = std::cell::RefCell::new(None);
+    let mtl_warnings = std::cell::RefCell::new(Vec::new());
     let obj_read::ObjText { models, materials: mtl, short_faces } = obj_read::read(&text, |mtl_path| {
         let mut merged: tobj::MTLLoadResult = Ok(Default::default());
         for file in mtl_files(&dir, mtl_path) {
             *mtl_file.borrow_mut() = Some(file.clone());
-            let mtl_text = crate::files::read_text(&file, crate::files::MAX_TEXT_BYTES)
+            let mtl_text = crate::files::read_bytes(&file, crate::files::MAX_TEXT_BYTES)
+                .and_then(|bytes| crate::files::text_or_latin1(&file, bytes))
+                .map(|(text, latin1)| {
+                    mtl_warnings.borrow_mut().extend(latin1);
+                    text
+                })
                 .map_err(|e| match e {
                     Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => Error::input(
                         &file,
@@ -105,7 +113,7 @@ pub fn load(path: &Path, choice: MeshMaterials, scene_materials: &[Material]) ->
     })?;
 
     let file_name = path.file_name().map_or_else(|| "obj".into(), |n| n.to_string_lossy().into_owned());
-    let mut warnings = Vec::new();
+    warnings.extend(mtl_warnings.into_inner());
     // An MTL file the faces would use that could not be read is the error
     // (a file named but not used is not).
     if let (Err(e), None) = (&mtl, material_override) {
