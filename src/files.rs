@@ -51,6 +51,17 @@ fn first_not_utf8(bytes: &[u8]) -> Location {
     Location::from_offset(std::str::from_utf8(&bytes[..valid]).unwrap_or(""), valid)
 }
 
+/// `bytes` as UTF-8 text, or where they are not, each as its Latin-1 (ISO
+/// 8859-1) character.
+pub fn utf8_or_latin1(bytes: Vec<u8>) -> String {
+    String::from_utf8(bytes).unwrap_or_else(|e| latin1(e.as_bytes()))
+}
+
+/// `bytes`, each as its Latin-1 (ISO 8859-1) character.
+fn latin1(bytes: &[u8]) -> String {
+    bytes.iter().map(|&b| char::from(b)).collect()
+}
+
 /// The text of a mesh file's (OBJ or MTL) `bytes`, read from `path`: as
 /// UTF-8, or, where it is not, each byte as its Latin-1 (ISO 8859-1)
 /// character, as older exporters on Windows wrote names and comments
@@ -63,11 +74,11 @@ pub fn text_or_latin1(path: &Path, bytes: Vec<u8>) -> Result<(String, Option<Str
     };
     let at = first_not_utf8(&bytes);
     if let Some(zero) = bytes.iter().position(|&b| b == 0) {
-        let before: String = bytes[..zero].iter().map(|&b| char::from(b)).collect();
+        let before = latin1(&bytes[..zero]);
         let location = Location::from_offset(&before, before.len());
         return Err(Error::input_at(path, location, "not text (a zero byte): is this a binary file?"));
     }
-    let text = bytes.iter().map(|&b| char::from(b)).collect();
+    let text = latin1(&bytes);
     let warning = format!(
         "{}: not UTF-8 text (the first such byte on line {}, column {}); read as Latin-1 (ISO 8859-1), as \
          older exporters wrote it",

@@ -186,12 +186,15 @@ fn read_header(path: &Path, input: &mut impl BufRead) -> Result<(Format, Vec<Ele
     let mut line_number = 0;
     let mut line = String::new();
     let mut next_line = |line: &mut String| -> Result<usize> {
-        line.clear();
-        let read = input.read_line(line).map_err(|e| Error::io(path, e))?;
+        let mut bytes = Vec::new();
+        let read = input.read_until(b'\n', &mut bytes).map_err(|e| Error::io(path, e))?;
         line_number += 1;
         if read == 0 {
             return Err(Error::input(path, "the file ends inside the header (no `end_header`)"));
         }
+        // (A comment in Latin-1, as older exporters on Windows wrote them,
+        // read as such: the keywords are ASCII.)
+        *line = crate::files::utf8_or_latin1(bytes);
         Ok(line_number)
     };
     let at = |n: usize, message: String| Error::input_at(path, Location { line: n, column: 1 }, message);
@@ -549,6 +552,10 @@ mod tests {
 
     #[test]
     fn reads_ascii_with_extra_properties_and_polygons() {
+        // (A comment in Latin-1, as older exporters wrote them, is read too.)
+        let mut latin1 = CUBE_ASCII.as_bytes().to_vec();
+        latin1[CUBE_ASCII.find("unit").unwrap()] = 0xe9;
+        assert_eq!(read_str(&latin1).unwrap().indices, read_str(CUBE_ASCII.as_bytes()).unwrap().indices);
         let m = read_str(CUBE_ASCII.as_bytes()).unwrap();
         assert_eq!(m.positions.len(), 5);
         assert_eq!(m.positions[4], Vec3::new(0.5, 2.0, 0.0));

@@ -85,11 +85,13 @@ fn read_binary(path: &Path, mut input: impl Read, count: u32) -> Result<StlMesh>
 }
 
 /// The triangles of an ASCII STL file: every `vertex x y z` line, three to
-/// a facet (`facet ... endfacet`); any other line is read past.
+/// a facet (`facet ... endfacet`); any other line is read past. A file
+/// that ends inside a facet was cut short: an error, not a facet lost.
 fn read_ascii(path: &Path, mut input: impl BufRead) -> Result<StlMesh> {
     let mut mesh = StlMesh::with_capacity(0);
     let mut corners = Vec::with_capacity(3);
-    let mut facet_line = 0;
+    // The line of the facet read, until its `endfacet`.
+    let mut facet_line = None;
     let mut bytes = Vec::new();
     for i in 0.. {
         let at = |message: String| Error::input_at(path, Location { line: i + 1, column: 1 }, message);
@@ -99,22 +101,30 @@ fn read_ascii(path: &Path, mut input: impl BufRead) -> Result<StlMesh> {
         let read =
             (&mut input).take(MAX_LINE).read_until(b'\n', &mut bytes).map_err(|e| Error::io(path, e))?;
         if read == 0 {
+            if let Some(facet_line) = facet_line {
+                return Err(at(format!(
+                    "the file ends inside the facet from line {facet_line} (no `endfacet`): is it cut short?"
+                )));
+            }
             break;
         }
         if read as u64 == MAX_LINE && !bytes.ends_with(b"\n") {
             return Err(at(format!("a line longer than {MAX_LINE} bytes: not an ASCII STL file")));
         }
-        let Ok(line) = std::str::from_utf8(&bytes) else {
+        // Text in Latin-1 (a solid's name, as older exporters on Windows
+        // wrote it) is read as such; a zero byte is no text.
+        if bytes.contains(&0) {
             return Err(at(
-                "not UTF-8 text: neither a binary STL file (its size does not match its count) nor an ASCII one"
+                "not text: neither a binary STL file (its size does not match its count) nor an ASCII one"
                     .into(),
             ));
-        };
+        }
+        let line = crate::files::utf8_or_latin1(std::mem::take(&mut bytes));
         let mut words = line.split_whitespace();
         match words.next() {
             Some("facet") => {
                 corners.clear();
-                facet_line = i + 1;
+                facet_line = Some(i + 1);
             }
             Some("vertex") => {
                 let numbers: Vec<f32> = words.map_while(|w| w.parse().ok()).collect();
@@ -125,12 +135,11 @@ fn read_ascii(path: &Path, mut input: impl BufRead) -> Result<StlMesh> {
             }
             Some("endfacet") => {
                 let [a, b, c] = corners[..] else {
-                    return Err(at(format!(
-                        "the facet from line {facet_line} has {} vertices; a facet has 3",
-                        corners.len()
-                    )));
+                    let from = facet_line.map_or_else(String::new, |line| format!(" from line {line}"));
+                    return Err(at(format!("the facet{from} has {} vertices; a facet has 3", corners.len())));
                 };
                 mesh.push([a, b, c]);
+                facet_line = None;
             }
             _ => {}
         }
@@ -233,8 +242,12 @@ mod tests {
         let ascii = "solid square\n facet normal 0 0 0\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n\
                      vertex 0 1 0\n  endloop\n endfacet\nfacet normal 0 0 1\nouter loop\nvertex 1 0 0\n\
                      vertex 1 1 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid square\n";
-        // A binary file whose header begins with `solid` is still binary.
-        for bytes in [binary(b"solid but binary", &SQUARE), binary(b"", &SQUARE), ascii.as_bytes().to_vec()] {
+        // A binary file whose header begins with `solid` is still binary;
+        // an ASCII one whose name is in Latin-1 (`caf\xe9`) is read.
+        let latin1 = [&b"solid caf\xe9"[..], &ascii.as_bytes()["solid square".len()..]].concat();
+        for bytes in
+            [binary(b"solid but binary", &SQUARE), binary(b"", &SQUARE), ascii.as_bytes().to_vec(), latin1]
+        {
             let m = load_bytes(&bytes).unwrap();
             assert_eq!(m.positions, SQUARE.concat());
             assert_eq!(m.indices, vec![[0, 1, 2], [3, 4, 5]]);
@@ -259,8 +272,10 @@ mod tests {
         bad[84 + 50 + 12..][..4].copy_from_slice(&f32::INFINITY.to_le_bytes());
         assert!(err(&bad).contains("triangle 2 has a corner that is not finite"));
         let mut garbled = b"solid x\nfacet\n".to_vec();
-        garbled.extend([0xff, 0xfe, b'\n']);
-        assert!(err(&garbled).contains("t.stl:3:1: not UTF-8 text"));
+        garbled.extend([0xff, 0x00, b'\n']);
+        assert!(err(&garbled).contains("t.stl:3:1: not text"));
+        let e = err(b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n");
+        assert!(e.contains("t.stl:6:1: the file ends inside the facet from line 2"), "{e}");
         let mut endless = b"solid x\n".to_vec();
         endless.resize(1 << 20, b'x');
         let e = err(&endless);
