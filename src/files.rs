@@ -25,7 +25,8 @@ pub fn check_regular(path: &Path) -> Result<()> {
 /// The text of the regular file at `path`, refused beyond `limit` bytes.
 pub fn read_text(path: &Path, limit: u64) -> Result<String> {
     String::from_utf8(read_bytes(path, limit)?).map_err(|e| {
-        Error::input_at(path, first_not_utf8(e.as_bytes()), "not UTF-8 text: is this a binary file?")
+        let at = first_not_utf8(e.as_bytes(), e.utf8_error().valid_up_to());
+        Error::input_at(path, at, "not UTF-8 text: is this a binary file?")
     })
 }
 
@@ -44,9 +45,9 @@ pub fn read_bytes(path: &Path, limit: u64) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// Where in `bytes` the first byte that is not UTF-8 lies (their end if none).
-fn first_not_utf8(bytes: &[u8]) -> Location {
-    let valid = std::str::from_utf8(bytes).map_or_else(|e| e.valid_up_to(), |_| bytes.len());
+/// Where in `bytes` the first byte that is not UTF-8 lies, after the
+/// `valid` bytes before it.
+fn first_not_utf8(bytes: &[u8], valid: usize) -> Location {
     // (The valid part gives the line and column.)
     Location::from_offset(std::str::from_utf8(&bytes[..valid]).unwrap_or(""), valid)
 }
@@ -68,11 +69,10 @@ fn latin1(bytes: &[u8]) -> String {
 /// (`Café` as one byte `0xe9`); then also a warning that says so, and
 /// where. A file with a zero byte is binary, not text: an error at its line.
 pub fn text_or_latin1(path: &Path, bytes: Vec<u8>) -> Result<(String, Option<String>)> {
-    let bytes = match String::from_utf8(bytes) {
+    let (at, bytes) = match String::from_utf8(bytes) {
         Ok(text) => return Ok((text, None)),
-        Err(e) => e.into_bytes(),
+        Err(e) => (first_not_utf8(e.as_bytes(), e.utf8_error().valid_up_to()), e.into_bytes()),
     };
-    let at = first_not_utf8(&bytes);
     if let Some(zero) = bytes.iter().position(|&b| b == 0) {
         let before = latin1(&bytes[..zero]);
         let location = Location::from_offset(&before, before.len());
