@@ -3,6 +3,7 @@
 //! files only up to a size limit, and output files are checked before any
 //! work and written whole or not at all.
 
+use std::borrow::Cow;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
@@ -52,10 +53,13 @@ fn first_not_utf8(bytes: &[u8], valid: usize) -> Location {
     Location::from_offset(std::str::from_utf8(&bytes[..valid]).unwrap_or(""), valid)
 }
 
-/// `bytes` as UTF-8 text, or where they are not, each as its Latin-1 (ISO
-/// 8859-1) character.
-pub fn utf8_or_latin1(bytes: Vec<u8>) -> String {
-    String::from_utf8(bytes).unwrap_or_else(|e| latin1(e.as_bytes()))
+/// `bytes` as UTF-8 text (borrowed), or where they are not, each as its
+/// Latin-1 (ISO 8859-1) character.
+pub fn utf8_or_latin1(bytes: &[u8]) -> Cow<'_, str> {
+    match std::str::from_utf8(bytes) {
+        Ok(text) => Cow::Borrowed(text),
+        Err(_) => Cow::Owned(latin1(bytes)),
+    }
 }
 
 /// `bytes`, each as its Latin-1 (ISO 8859-1) character.

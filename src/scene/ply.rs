@@ -194,7 +194,7 @@ fn read_header(path: &Path, input: &mut impl BufRead) -> Result<(Format, Vec<Ele
         }
         // (A comment in Latin-1, as older exporters on Windows wrote them,
         // read as such: the keywords are ASCII.)
-        *line = crate::files::utf8_or_latin1(bytes);
+        *line = crate::files::utf8_or_latin1(&bytes).into_owned();
         Ok(line_number)
     };
     let at = |n: usize, message: String| Error::input_at(path, Location { line: n, column: 1 }, message);

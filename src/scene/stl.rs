@@ -119,7 +119,7 @@ fn read_ascii(path: &Path, mut input: impl BufRead) -> Result<StlMesh> {
                     .into(),
             ));
         }
-        let line = crate::files::utf8_or_latin1(std::mem::take(&mut bytes));
+        let line = crate::files::utf8_or_latin1(&bytes);
         let mut words = line.split_whitespace();
         match words.next() {
             Some("facet") => {
