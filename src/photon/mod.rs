@@ -155,7 +155,7 @@ pub fn build_maps(
                     let stride = record_stride(settings.global_k);
                     PhotonMap::with_irradiance(photons, stride, &settings.global_estimate(diagonal))
                 }
-                false => PhotonMap::new(photons),
+                false => PhotonMap::searched_by_runs(photons),
             })
         },
         || caustic.map(|photons| with_caustic_cells(PhotonMap::new(photons), settings, diagonal)),
