@@ -5,6 +5,7 @@
 mod common;
 
 use std::f32::consts::PI;
+use std::ffi::OsStr;
 use std::path::Path;
 
 use caustix::accel::embree::EmbreeIntersector;
@@ -237,6 +238,24 @@ fn cli_writes_each_requested_component() {
     assert_eq!(bad.status.code(), Some(2));
     let says = String::from_utf8_lossy(&bad.stderr);
     assert!(says.contains("invalid value 'glow'") && says.contains("indirect"), "{says}");
+    // The previews draw no light and no albedo: asking for those is an
+    // error, not a black file; their geometry components are written.
+    for (integrator, aov, ok) in
+        [("normals", "albedo", false), ("depth", "caustic", false), ("normals", "depth,normal", true)]
+    {
+        let out = dir.path().join(format!("{integrator}.exr"));
+        let args = ["render", "--integrator", integrator, "--aov", aov, "-o"].map(OsStr::new);
+        let run = caustix(&[&args[..1], &[scene.as_os_str()], &args[1..], &[out.as_os_str()]].concat());
+        let says = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.success(), ok, "{integrator} --aov {aov}: {says}");
+        if !ok {
+            assert!(
+                says.contains(&format!("--aov {aov}: the {integrator} integrator draws geometry")),
+                "{says}"
+            );
+            assert!(!out.exists());
+        }
+    }
 }
 
 /// Shadow rays per area light at each surface a camera ray meets: four for

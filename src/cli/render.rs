@@ -26,8 +26,9 @@ pub struct RenderArgs {
     /// same pixels of the whole render.
     #[arg(long, value_parser = parse_tile, conflicts_with = "crop")]
     tile: Option<(u32, u32)>,
-    /// Render only the pixels x0..x1, y0..y1 (columns, then rows; row 0 at the
-    /// top, x1 and y1 excluded). As an .exr it is a tile for `caustix merge`.
+    /// Render only a rectangle of pixels, given as x0,y0,x1,y1: columns x0 to
+    /// x1 and rows y0 to y1, x1 and y1 excluded, row 0 at the top (e.g.
+    /// `--crop 0,0,256,128`). As an .exr it is a tile for `caustix merge`.
     #[arg(long, value_parser = parse_crop)]
     crop: Option<Region>,
     /// Refine for this many seconds instead of a fixed sample count: more
@@ -276,6 +277,19 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         None => args.crop,
     };
     caustix::integrator::check(&scene, &settings).map_err(in_flags)?;
+    // The previews draw geometry into the final image; they carry no light
+    // and no albedo, so those components would be black files.
+    if matches!(settings.integrator, IntegratorKind::Normals | IntegratorKind::Depth) {
+        if let Some(aov) = args.aov.iter().find(|aov| !matches!(aov, Aov::Final | Aov::Normal | Aov::Depth)) {
+            anyhow::bail!(
+                "--aov {}: the {} integrator draws geometry, not light; its components are final, normal and \
+                 depth (render with another integrator for {})",
+                aov.name(),
+                settings.integrator.name(),
+                aov.name()
+            );
+        }
+    }
     anyhow::ensure!(
         !args.snapshots || settings.time.is_some(),
         "--snapshots shows a render to a time budget as it refines: give --time SECONDS (or [render] time)"
