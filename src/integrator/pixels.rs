@@ -3,6 +3,8 @@
 //! handed to threads, one random stream per pixel, tiles written back by
 //! position, so the image never depends on the thread count.
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use super::{Context, Progress};
@@ -22,44 +24,80 @@ pub fn render_pixels(
     progress: &Progress,
     pixel: impl Fn(u32, u32, &mut Rng, &mut RayCount) -> Sample + Sync,
 ) -> (Film, RayCount) {
+    let region = ctx.config.region();
+    let mut film = Film::new(region.width(), region.height());
+    let rays = render_pixels_into(ctx, progress, pixel, &mut Vec::new(), |i, sample| film.pixels[i] = sample);
+    (film, rays)
+}
+
+/// [`render_pixels`], each pixel's sample handed to `store` with its index
+/// in the region (row by row) instead of written to a new film, the tiles
+/// rendered into `scratch` (any contents; left holding them): for the
+/// integrators that add pass after pass into one sum, with the same
+/// scratch every pass. (A new film and new tiles every pass made the
+/// kernel hand out and clear fresh pages every pass: 5-10% of a
+/// light-tracing render, BENCHMARKS.md.)
+pub fn render_pixels_into(
+    ctx: &Context,
+    progress: &Progress,
+    pixel: impl Fn(u32, u32, &mut Rng, &mut RayCount) -> Sample + Sync,
+    scratch: &mut Vec<Sample>,
+    mut store: impl FnMut(usize, Sample),
+) -> RayCount {
     let width = ctx.config.width;
     let region = ctx.config.region();
     // Rounds after the first of a render to a time budget draw from other
     // streams (the first round's are the plain render's).
     let seed = |first: u32| ctx.config.seed.wrapping_add(first as u64 * 0x9E37_79B9_7F4A_7C15);
-    let tiles: Vec<(u32, u32)> = (region.y0..region.y1)
+    // Each tile's pixels, row by row.
+    let tiles: Vec<(Range<u32>, Range<u32>)> = (region.y0..region.y1)
         .step_by(TILE as usize)
-        .flat_map(|y0| (region.x0..region.x1).step_by(TILE as usize).map(move |x0| (x0, y0)))
+        .flat_map(|y0| {
+            (region.x0..region.x1)
+                .step_by(TILE as usize)
+                .map(move |x0| (x0..(x0 + TILE).min(region.x1), y0..(y0 + TILE).min(region.y1)))
+        })
         .collect();
-    let rendered: Vec<((u32, u32), Vec<Sample>, RayCount)> = tiles
-        .into_par_iter()
-        .map(|(x0, y0)| {
+    // The tiles' samples one tile after another in `scratch`, each tile
+    // its own part.
+    scratch.resize(region.pixels() as usize, Sample::default());
+    let mut parts = Vec::with_capacity(tiles.len());
+    let mut rest = &mut scratch[..];
+    for (xs, ys) in &tiles {
+        let (part, tail) = rest.split_at_mut(xs.len() * ys.len());
+        parts.push(part);
+        rest = tail;
+    }
+    let counts: Vec<RayCount> = tiles
+        .par_iter()
+        .zip(parts)
+        .map(|((xs, ys), part)| {
             let mut count = RayCount::default();
-            let mut pixels = Vec::with_capacity((TILE * TILE) as usize);
-            for y in y0..(y0 + TILE).min(region.y1) {
-                for x in x0..(x0 + TILE).min(region.x1) {
-                    // The stream of the pixel's index in the whole image,
-                    // so a region renders the same pixels as the whole.
-                    let first = ctx.samples_at(x, y).first;
-                    let mut rng = Rng::new(seed(first), (y as u64) * width as u64 + x as u64);
-                    pixels.push(pixel(x, y, &mut rng, &mut count));
-                }
+            let places = ys.clone().flat_map(|y| xs.clone().map(move |x| (x, y)));
+            for ((x, y), slot) in places.zip(part.iter_mut()) {
+                // The stream of the pixel's index in the whole image,
+                // so a region renders the same pixels as the whole.
+                let first = ctx.samples_at(x, y).first;
+                let mut rng = Rng::new(seed(first), (y as u64) * width as u64 + x as u64);
+                *slot = pixel(x, y, &mut rng, &mut count);
             }
-            progress(pixels.len() as u64);
-            ((x0, y0), pixels, count)
+            progress(part.len() as u64);
+            count
         })
         .collect();
 
-    let mut film = Film::new(region.width(), region.height());
+    let mut samples = scratch.iter();
     let mut total = RayCount::default();
-    for ((x0, y0), tile, count) in rendered {
+    for ((xs, ys), count) in tiles.into_iter().zip(counts) {
         total += count;
-        let tile_width = (x0 + TILE).min(region.x1) - x0;
-        for (i, c) in tile.into_iter().enumerate() {
-            film.set(x0 - region.x0 + i as u32 % tile_width, y0 - region.y0 + i as u32 / tile_width, c);
+        for y in ys {
+            for x in xs.clone() {
+                let index = (y - region.y0) as usize * region.width() as usize + (x - region.x0) as usize;
+                store(index, *samples.next().expect("a sample for each pixel"));
+            }
         }
     }
-    (film, total)
+    total
 }
 
 /// Averages `radiance` over a pixel's camera rays: the samples

@@ -292,6 +292,9 @@ pub struct Progressive<'a> {
     /// Where a first batch of photons landed, for the starting radius of
     /// each pixel (traced before the first pass), when no radius is given.
     density: Option<Density>,
+    /// The last pass's camera points, kept so that the next pass writes
+    /// into the same memory (see [`Progressive::camera_paths`]).
+    points: CameraPoints,
 }
 
 /// Photons of a batch of their own, traced before the first pass: each
@@ -457,6 +460,7 @@ impl<'a> Progressive<'a> {
             rays,
             photon_seconds,
             density,
+            points: CameraPoints::default(),
         }
     }
 
@@ -499,13 +503,13 @@ impl<'a> Progressive<'a> {
     /// does. A part of a pass weighs as its part in the average over passes.
     pub fn run_part_of_pass(&mut self, fraction: f64) {
         let pass_start = Instant::now();
-        let points = self.camera_paths(fraction);
+        self.camera_paths(fraction);
         let camera_seconds = pass_start.elapsed().as_secs_f64();
         let start = Instant::now();
         let ctx = self.ctx;
         let per_pass = ctx.config.photons.sppm.photons_per_pass;
         let photons = ((per_pass as f64 * fraction).round() as u32).clamp(1, per_pass);
-        let (gathered, to_camera, photon_rays) = self.gather_photons(&points, photons);
+        let (gathered, to_camera, photon_rays) = self.gather_photons(&self.points, photons);
         self.rays += photon_rays;
         // Serially, in the order the photons were emitted: the sums do not
         // depend on the thread count.
@@ -530,9 +534,14 @@ impl<'a> Progressive<'a> {
 
     /// The camera paths of a pass, or of `fraction` of one (every pixel's
     /// first path, that part of the others): what they find themselves
-    /// goes to their pixels, and each pixel's visible point is returned
-    /// (the pixel's starting radius set at its first).
-    fn camera_paths(&mut self, fraction: f64) -> CameraPoints {
+    /// goes to their pixels, and each pixel's visible point and lobe points
+    /// to `self.points` (the pixel's starting radius set at its first).
+    ///
+    /// The points are written over the last pass's, in the same memory: a
+    /// fresh array each pass (and growing ones) made the kernel hand out
+    /// and clear new pages every pass, which took about a tenth of SPPM's
+    /// time (BENCHMARKS.md).
+    fn camera_paths(&mut self, fraction: f64) {
         let ctx = self.ctx;
         let region = ctx.config.region();
         let density = self.density.as_ref();
@@ -551,28 +560,32 @@ impl<'a> Progressive<'a> {
             None => vec![CAMERA_PATHS_PER_PASS - 1; self.pixels.len()],
         };
         let passes = self.passes;
-        let found: Vec<(Option<VisiblePoint>, Vec<VisiblePoint>, RayCount)> = self
+        let points = &mut self.points;
+        points.visible.resize(self.pixels.len(), None);
+        points.lobes.resize_with(self.pixels.len(), Vec::new);
+        let count: RayCount = self
             .pixels
             .par_iter_mut()
             .zip(extra)
+            .zip(points.visible.par_iter_mut().zip(points.lobes.par_iter_mut()))
             .enumerate()
-            .map(|(i, (state, extra))| {
+            .map(|(i, ((state, extra), (point, lobe_points)))| {
                 let mut count = RayCount::default();
                 // What the camera paths find themselves is averaged over
                 // all of the pixel's; the first leaves the visible point.
                 let mut seen = std::mem::take(&mut state.seen);
-                let mut point = None;
-                let mut lobe_points = Vec::new();
+                *point = None;
+                lobe_points.clear();
                 for path in 0..=extra {
                     // Of the pixel's paths so far, `passes` left visible points.
                     let sample = match path {
                         0 => CameraSample::VisiblePoint(passes),
                         _ => CameraSample::Other(state.paths - passes + path - 1),
                     };
-                    let lobes = (path == 0).then_some(&mut lobe_points);
+                    let lobes = (path == 0).then_some(&mut *lobe_points);
                     let found = visible_point(&ctx, region.pixel(i), sample, state, lobes, &mut count);
                     if path == 0 {
-                        point = found;
+                        *point = found;
                     }
                     let this = std::mem::take(&mut state.seen);
                     state.seen_sq += luminance(&this).powi(2);
@@ -580,25 +593,19 @@ impl<'a> Progressive<'a> {
                 }
                 state.paths += 1 + extra;
                 state.seen = seen;
-                if let (Some(vp), Some(density)) = (&mut point, density) {
+                if let (Some(vp), Some(density)) = (point.as_mut(), density) {
                     if state.visible.radius == 0.0 {
                         state.visible.radius = density.radius_at(vp.p);
                         vp.radius = state.visible.radius;
                     }
                 }
-                for lp in &mut lobe_points {
+                for lp in lobe_points.iter_mut() {
                     lp.radius = lobe_radius.at(lp.p);
                 }
-                (point, lobe_points, count)
+                count
             })
-            .collect();
-        let mut points = CameraPoints::default();
-        for (point, lobes, count) in found {
-            points.visible.push(point);
-            points.lobes.push(lobes);
-            self.rays += count;
-        }
-        points
+            .sum();
+        self.rays += count;
     }
 
     /// The image so far, with its work counts; `elapsed` is the time to report.
@@ -715,7 +722,9 @@ impl<'a> Progressive<'a> {
             },
         );
         // Joined into one array its exact size: each chunk is freed as it
-        // is copied, so a pass holds its photons about once.
+        // is copied, so a pass holds its photons about once. (Kept from
+        // pass to pass instead, it made twice the page faults: the next
+        // pass's chunks could no longer use its memory.)
         let mut arrived = Vec::with_capacity(chunks.iter().map(|c| c.photons.len()).sum());
         let mut to_camera = Vec::new();
         for chunk in chunks {
@@ -1425,9 +1434,9 @@ mod tests {
         };
         let mut cells = vec![[[0; 4]; 4]; 6];
         for _ in 0..16 {
-            let points = run.camera_paths(1.0);
+            run.camera_paths(1.0);
             run.passes += 1;
-            for (i, vp) in points.visible.iter().enumerate() {
+            for (i, vp) in run.points.visible.iter().enumerate() {
                 let (x, y) = ((i % 3) as f32, (i / 3) as f32);
                 let p = vp.expect("every path meets the wall").p;
                 // The edges between its 4 x 4 cells, on the wall.

@@ -38,7 +38,7 @@ use rayon::prelude::*;
 
 use super::direct::{LightSamples, LightSampling};
 use super::path::PathClass;
-use super::pixels::render_pixels;
+use super::pixels::render_pixels_into;
 use super::to_camera::CameraView;
 use super::unreached::Unreached;
 use super::{Context, Integrator, Progress, Rendered, SampleRange};
@@ -375,8 +375,11 @@ struct LightPaths {
     vertices: Vec<LightVertex>,
     /// `starts[i]..starts[i + 1]` index `vertices` for subpath `i`.
     starts: Vec<usize>,
-    /// Light-tracing contributions: pixel of the film, component, value.
-    splats: Vec<(usize, Component, Vec3)>,
+    /// Light-tracing contributions: pixel of the film, component, value;
+    /// in the chunks the paths were traced in, in order, each chunk's in a
+    /// list of its own (joined into one, a pass's splats took fresh pages
+    /// every pass: BENCHMARKS.md). [`light_path`] adds to the last list.
+    splats: Vec<Vec<(usize, Component, Vec3)>>,
     rays: RayCount,
 }
 
@@ -412,6 +415,8 @@ impl Integrator for Vcm {
         // the scene's vertices for its bounds).
         let base_radius = ctx.config.photons.sppm.initial_radius.unwrap_or_else(|| default_radius(ctx));
         let pick = light_choice(&ctx.scene().lights);
+        // The passes' camera samples, tile by tile: the same memory each pass.
+        let mut tiles = Vec::new();
         for index in range.first..range.first + range.count {
             let pass = Pass::new(ctx, self.0, index, base_radius, &pick);
             radius = pass.radius;
@@ -419,30 +424,35 @@ impl Integrator for Vcm {
             let grid = (self.0 == Mode::VertexMerging)
                 .then(|| Grid::new(light.vertices.iter().map(|v| v.sp.p).collect(), pass.radius));
             let round = Context { samples: SampleRange { first: index, count: 1 }, ..*ctx };
-            let (film, camera_rays) = render_pixels(&round, progress, |x, y, rng, count| {
-                let c = ctx.config;
-                let path = y as usize * c.width as usize + x as usize;
-                // The camera subpath draws from the pixel's stream, or with
-                // Sobol from pass `index`'s low-discrepancy point.
-                let mut sobol = c.sampler.sample_stream(c.seed, path as u64, index);
-                let rng = sobol.as_mut().unwrap_or(rng);
-                let offset = rng.uniform2();
-                let ray = ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height);
-                let vertices = &light.vertices[light.starts[path]..light.starts[path + 1]];
-                camera_path(
-                    ctx,
-                    &pass,
-                    ray,
-                    vertices,
-                    grid.as_ref().map(|g| (g, &light.vertices[..])),
-                    rng,
-                    count,
-                )
-            });
-            for (s, p) in sum.iter_mut().zip(film.pixels) {
-                *s += p;
-            }
-            for &(pixel, component, value) in &light.splats {
+            let add = |i: usize, sample: Sample| sum[i] += sample;
+            let camera_rays = render_pixels_into(
+                &round,
+                progress,
+                |x, y, rng, count| {
+                    let c = ctx.config;
+                    let path = y as usize * c.width as usize + x as usize;
+                    // The camera subpath draws from the pixel's stream, or with
+                    // Sobol from pass `index`'s low-discrepancy point.
+                    let mut sobol = c.sampler.sample_stream(c.seed, path as u64, index);
+                    let rng = sobol.as_mut().unwrap_or(rng);
+                    let offset = rng.uniform2();
+                    let ray =
+                        ctx.scene().camera.ray(x as f32 + offset.x, y as f32 + offset.y, c.width, c.height);
+                    let vertices = &light.vertices[light.starts[path]..light.starts[path + 1]];
+                    camera_path(
+                        ctx,
+                        &pass,
+                        ray,
+                        vertices,
+                        grid.as_ref().map(|g| (g, &light.vertices[..])),
+                        rng,
+                        count,
+                    )
+                },
+                &mut tiles,
+                add,
+            );
+            for &(pixel, component, value) in light.splats.iter().flatten() {
                 *component.slot(&mut sum[pixel]) += value;
             }
             rays += camera_rays;
@@ -470,7 +480,7 @@ fn trace_light_paths(ctx: &Context, pass: &Pass, index: u32) -> LightPaths {
             let mut out = LightPaths {
                 vertices: Vec::new(),
                 starts: Vec::new(),
-                splats: Vec::new(),
+                splats: vec![Vec::new()],
                 rays: RayCount::default(),
             };
             for i in chunk * LIGHT_CHUNK..((chunk + 1) * LIGHT_CHUNK).min(n) {
@@ -484,7 +494,7 @@ fn trace_light_paths(ctx: &Context, pass: &Pass, index: u32) -> LightPaths {
     let mut all = LightPaths {
         vertices: Vec::with_capacity(chunks.iter().map(|c| c.vertices.len()).sum()),
         starts: Vec::with_capacity(n + 1),
-        splats: Vec::new(),
+        splats: Vec::with_capacity(chunks.len()),
         rays: RayCount::default(),
     };
     for chunk in chunks {
@@ -548,7 +558,11 @@ fn light_path(ctx: &Context, pass: &Pass, rng: &mut Rng, keep: bool, out: &mut L
         let smooth = bsdf.has_smooth() && sp.smooth_lobes_take(-dir);
         if smooth {
             if let Some((pixel, value)) = connect_to_camera(ctx, pass, &sp, &bsdf, &path, &mut out.rays) {
-                out.splats.push((pixel, history.component(), value));
+                out.splats.last_mut().expect("a list for the chunk's splats").push((
+                    pixel,
+                    history.component(),
+                    value,
+                ));
             }
             if keep {
                 out.vertices.push(LightVertex { sp, dir, path, history });
