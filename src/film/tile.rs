@@ -60,12 +60,15 @@ pub fn save(path: &Path, image: &Image, scene: &Scene, config: &RenderConfig) ->
     let width = region.width() as usize;
     let mut attributes =
         LayerAttributes { layer_position: Vec2(region.x0 as i32, region.y0 as i32), ..Default::default() };
+    // The two attributes go to two maps, the layer's and the image's (one
+    // header either way): the `exr` crate writes a map in no fixed order,
+    // and with both in one map the same tile came out as different bytes
+    // from run to run.
     attributes.other.insert(
         Text::from(RENDER_KEY),
         AttributeValue::Text(Text::from(format!("{:016x}", fingerprint(scene, config)).as_str())),
     );
     let name = scene.path.file_name().unwrap_or_default().to_string_lossy().into_owned();
-    attributes.other.insert(Text::from(SCENE_KEY), AttributeValue::Text(Text::new_or_panic(ascii(&name))));
     let layer = Layer::new(
         (width, region.height() as usize),
         attributes,
@@ -78,6 +81,9 @@ pub fn save(path: &Path, image: &Image, scene: &Scene, config: &RenderConfig) ->
     let mut exr = ExrImage::from_layer(layer);
     exr.attributes.display_window =
         IntegerBounds::new((0, 0), (config.width as usize, config.height as usize));
+    exr.attributes
+        .other
+        .insert(Text::from(SCENE_KEY), AttributeValue::Text(Text::new_or_panic(ascii(&name))));
     let mut bytes = std::io::Cursor::new(Vec::new());
     exr.write().to_buffered(&mut bytes).map_err(|e| fail(format!("cannot encode the tile: {e}")))?;
     crate::files::write_whole(path, bytes.get_ref())
