@@ -9,7 +9,9 @@
 //! each gather hit makes (`PhotonMap::precomputed_radiance`), and the
 //! caustic map's k-nearest estimate each camera hit makes
 //! (`PhotonMap::radiance`), at gather hits and at the diffuse surfaces the
-//! camera sees. Prints nanoseconds a lookup and a checksum (the
+//! camera sees; and the global map's estimate at those surfaces, as a
+//! render without gather rays makes it (by the map's runs, and by kiddo's
+//! tree for the ratio). Prints nanoseconds a lookup and a checksum (the
 //! sum of what was found; the same when answers are the same).
 
 use std::path::Path;
@@ -87,6 +89,26 @@ fn main() {
             }
         })
         .collect();
+
+    // Without gather rays the global map is read directly at the camera's
+    // hits, searched by its runs; kiddo's tree over the same photons for
+    // the ratio (BENCHMARKS.md, "The global map read directly").
+    if !seen.is_empty() {
+        let estimate = settings.global_estimate(diagonal);
+        let kd_tree = caustix::photon::PhotonMap::new(photons.to_vec());
+        let runs = caustix::photon::PhotonMap::searched_by_runs(photons.to_vec());
+        for (search, map) in [("runs", &runs), ("kd-tree", &kd_tree)] {
+            let start = Instant::now();
+            let sum: f32 =
+                seen.iter().map(|&(p, n, wo, m)| map.radiance(p, n, wo, m, &estimate).element_sum()).sum();
+            let ns = start.elapsed().as_secs_f64() * 1e9 / seen.len() as f64;
+            println!(
+                "global estimate at {} camera hits (k = {}, by {search}): {ns:.0} ns a lookup (checksum {sum:.6e})",
+                seen.len(),
+                estimate.k
+            );
+        }
+    }
 
     if let Some(caustic) = &maps.caustic {
         let estimate = settings.caustic_estimate(diagonal);
