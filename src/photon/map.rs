@@ -678,11 +678,12 @@ mod tests {
     #[test]
     fn kiddo_and_the_runs_find_the_same_nearest_photons() {
         // A global map searches its runs, the caustic map kiddo's tree
-        // (where its cells do not answer): the same photons either way, nearest first. Among photons at
-        // exactly the same distance the runs give the smaller index first,
-        // kiddo an order of its own, and where such a tie straddles the k-th
-        // place the two may keep different ones. Half the photons on a
-        // lattice, half random; caps from none found to all.
+        // (where its cells do not answer): the same photons either way,
+        // nearest first. Among photons at exactly the same distance the
+        // runs give the smaller index first, kiddo an order of its own, and
+        // where such a tie straddles the k-th place the two may keep
+        // different ones. Half the photons on a lattice, half random; caps
+        // from none found to all.
         let mut rng = Rng::new(9, 4);
         let photons = Photon::on_lattice_and_scattered(6000, 50, &mut rng);
         let tree = PhotonMap::new(photons.clone());
