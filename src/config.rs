@@ -65,6 +65,14 @@ macro_rules! integrator_kinds {
     };
 }
 
+impl IntegratorKind {
+    /// Whether it draws geometry into the image rather than light (the
+    /// normals and depth previews): no light or albedo components.
+    pub fn is_preview(self) -> bool {
+        matches!(self, IntegratorKind::Normals | IntegratorKind::Depth)
+    }
+}
+
 integrator_kinds! {
     /// Photon mapping: Whitted ray tracing plus caustics from the caustic
     /// map and indirect light from the global map (by final gathering, or

@@ -279,7 +279,7 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     caustix::integrator::check(&scene, &settings).map_err(in_flags)?;
     // The previews draw geometry into the final image; they carry no light
     // and no albedo, so those components would be black files.
-    if matches!(settings.integrator, IntegratorKind::Normals | IntegratorKind::Depth) {
+    if settings.integrator.is_preview() {
         if let Some(aov) = args.aov.iter().find(|aov| !matches!(aov, Aov::Final | Aov::Normal | Aov::Depth)) {
             anyhow::bail!(
                 "--aov {}: the {} integrator draws geometry, not light; its components are final, normal and \
@@ -397,7 +397,7 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     beauty.save(&output, args.exposure)?;
     // A black image from a scene with lights is most often a scene mistake
     // (a light inside a closed mesh, or facing away), not what was meant.
-    let lit = !matches!(settings.integrator, IntegratorKind::Normals | IntegratorKind::Depth);
+    let lit = !settings.integrator.is_preview();
     if lit
         && settings.region.is_none()
         && !scene.lights.is_empty()

@@ -183,11 +183,6 @@ impl Film {
         Film { width, height, pixels: vec![Sample::default(); width as usize * height as usize] }
     }
 
-    /// Sets the pixel at column `x`, row `y`.
-    pub fn set(&mut self, x: u32, y: u32, value: Sample) {
-        self.pixels[(y * self.width + x) as usize] = value;
-    }
-
     /// One image of the film.
     pub fn image(&self, aov: Aov) -> Image {
         Image {
