@@ -3,6 +3,8 @@
 
 mod common;
 
+use std::path::Path;
+
 use caustix::scene::Scene;
 use common::{write, write_bytes, QUAD_SCENE};
 use glam::Vec3;
@@ -250,6 +252,44 @@ fn info_of_a_mesh_prints_a_scene_that_frames_it() {
             "{name}: the mesh reaches the image's edge"
         );
     }
+}
+
+/// The scene `caustix info` prints for a mesh names the mesh from where
+/// the scene goes: from the folder of the file its output is redirected to
+/// (in another folder than the mesh, a name with quotes), else as the path
+/// was given, from the current folder. Each scene loads with the mesh.
+#[test]
+fn info_names_the_mesh_from_where_its_scene_is_saved() {
+    let dir = tempfile::tempdir().unwrap();
+    let models = dir.path().join("models \"q\"");
+    let scenes = dir.path().join("scenes").join("deeper");
+    std::fs::create_dir_all(&models).unwrap();
+    std::fs::create_dir_all(&scenes).unwrap();
+    std::fs::copy(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/data/bunny.obj"), models.join("bunny.obj"))
+        .unwrap();
+    let info = |to: std::process::Stdio, saved: &Path| {
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_caustix"))
+            .args(["info", "models \"q\"/bunny.obj"])
+            .current_dir(dir.path())
+            .stdout(to)
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        if !run.stdout.is_empty() {
+            std::fs::write(saved, &run.stdout).unwrap();
+        }
+        let text: toml::Value = toml::from_str(&std::fs::read_to_string(saved).unwrap()).unwrap();
+        let file = text["mesh"][0]["file"].as_str().unwrap().to_string();
+        let scene = Scene::load(saved).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(scene.triangle_count(), 3674 + 2, "{file}");
+        file
+    };
+    let saved = scenes.join("bunny.toml");
+    let file = info(std::fs::File::create(&saved).unwrap().into(), &saved);
+    assert_eq!(file, r#"../../models "q"/bunny.obj"#);
+    let piped = dir.path().join("piped.toml");
+    let file = info(std::process::Stdio::piped(), &piped);
+    assert_eq!(file, r#"models "q"/bunny.obj"#);
 }
 
 /// Faces an OBJ file gives no material (before its first `usemtl`, or

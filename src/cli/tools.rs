@@ -300,11 +300,39 @@ fn mesh_info(path: &Path) -> anyhow::Result<()> {
         let meshes = contents.defaulted.join(", ");
         outln!("#   none for {meshes}: its [[mesh]] needs a `default_material = \"...\"`");
     }
-    let name =
-        path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
-    outln!("#\n# A scene that frames it, to save beside {name} as a .toml file and render.\n");
-    out!("{}", framing_scene(b, &name, needs, lights.is_empty()));
+    let (file, saved) = match stdout_file().and_then(|out| path_from_folder_of(&out, path)) {
+        Some(file) => (file, " (its mesh named from this file's folder): render it"),
+        None => (
+            path.to_path_buf(),
+            ", to save as a .toml file in the current folder (its mesh is named from there) and render",
+        ),
+    };
+    let file = file.to_string_lossy();
+    outln!("#\n# A scene that frames it{saved}.\n");
+    out!("{}", framing_scene(b, &file, needs, lights.is_empty()));
     Ok(())
+}
+
+/// The regular file standard output writes to, where the system says
+/// (Linux's `/proc`): not a terminal or a pipe.
+fn stdout_file() -> Option<PathBuf> {
+    let out = std::fs::read_link("/proc/self/fd/1").ok()?;
+    out.metadata().ok()?.is_file().then_some(out)
+}
+
+/// `target`'s path from the folder of the file `from` (a scene file names
+/// its meshes from its own folder): through `..` where they part, or from
+/// the root where they share nothing else; `None` where either cannot be
+/// resolved.
+fn path_from_folder_of(from: &Path, target: &Path) -> Option<PathBuf> {
+    let folder = from.canonicalize().ok()?.parent()?.to_path_buf();
+    let target = target.canonicalize().ok()?;
+    let shared = folder.components().zip(target.components()).take_while(|(a, b)| a == b).count();
+    if shared <= 1 {
+        return Some(target);
+    }
+    let up = folder.components().skip(shared).map(|_| std::path::Component::ParentDir);
+    Some(up.chain(target.components().skip(shared)).collect())
 }
 
 /// Scene text that shows a mesh whose box is `b`: the camera (40 degrees)
@@ -335,11 +363,13 @@ fn framing_scene(b: caustix::bounds::Bounds, file: &str, needs: Option<&str>, po
          [materials.grey]\ndiffuse = 0.7\n\n\
          {light}\
          [[quad]]\ncenter = {}\nu = [{}, 0.0, 0.0]\nv = [0.0, 0.0, {}]\nmaterial = \"grey\"\n\n\
-         [[mesh]]\nfile = \"{file}\"\n{material}",
+         [[mesh]]\nfile = {}\n{material}",
         point(eye),
         point(centre),
         point(Vec3::new(centre.x, b.min.y, centre.z)),
         8.0 * radius,
         -8.0 * radius,
+        // (Quoted as TOML would: a path may hold quotes or backslashes.)
+        toml::Value::String(file.to_string()),
     )
 }
