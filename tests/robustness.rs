@@ -354,6 +354,20 @@ fn values_beyond_the_floats_are_refused() {
         "came out NaN or infinite (its direct component), rendering with the whitted integrator and seed 0",
     );
     assert!(!out.exists(), "no image is written");
+
+    // A flag's number beyond the floats is named as typed (an `f32` reads
+    // it as infinity, which the flag's own check reported as `inf`).
+    let scene = write(dir.path(), "quad.toml", QUAD_SCENE);
+    for (flag, value) in [("--time", "1e300"), ("--exposure", "-1e39"), ("--caustic-radius", "4e38")] {
+        let run = caustix(&["render".as_ref(), scene.as_os_str(), flag.as_ref(), value.as_ref()]);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{flag} {value}: {stderr}");
+        assert!(
+            stderr.contains(&format!("{value} is beyond the largest number"))
+                && !stderr.contains("found inf"),
+            "{flag} {value}: {stderr}"
+        );
+    }
 }
 
 /// Faces an OBJ file loses are reported, and a missing MTL file is named.

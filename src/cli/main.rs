@@ -88,7 +88,7 @@ enum Command {
         #[arg(long)]
         error_image: Option<PathBuf>,
         /// Absolute difference shown as full red in the error picture.
-        #[arg(long, allow_negative_numbers = true, default_value_t = 0.1)]
+        #[arg(long, value_parser = crate::float, allow_negative_numbers = true, default_value_t = 0.1)]
         error_scale: f32,
     },
     /// Denoise a rendered image with Intel Open Image Denoise (needs caustix
@@ -103,7 +103,7 @@ enum Command {
         #[arg(short, long)]
         output: PathBuf,
         /// Exposure for PNG output, in stops.
-        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        #[arg(long, value_parser = crate::float, default_value_t = 0.0, allow_negative_numbers = true)]
         exposure: f32,
     },
 }
@@ -226,6 +226,18 @@ fn worker_threads(threads: Option<u32>) -> anyhow::Result<usize> {
 fn in_range(flag: &str, value: u32, min: u32, max: u32) -> anyhow::Result<u32> {
     anyhow::ensure!((min..=max).contains(&value), "{flag} must be from {min} to {max}, found {value}");
     Ok(value)
+}
+
+/// A parser for an `f32` flag that refuses a number beyond the floats
+/// (`1e300` read as an `f32` is infinity, and the flag's own check would
+/// then say it found `inf`). `inf` and `nan` as written pass, for that
+/// check to refuse by the flag's own rule.
+fn float(text: &str) -> Result<f32, String> {
+    let wide: f64 = text.trim().parse().map_err(|_| format!("`{text}` is not a number"))?;
+    if wide.is_finite() && wide.abs() > f64::from(f32::MAX) {
+        return Err(format!("{text} is beyond the largest number caustix takes here ({:e})", f32::MAX));
+    }
+    Ok(wide as f32)
 }
 
 /// A parser for a library type named by one of `names` (what clap lists in

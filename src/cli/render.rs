@@ -36,7 +36,7 @@ pub struct RenderArgs {
     /// Whitted and photon mapping, more passes for SPPM, VCM, BDPT and
     /// light tracing; from 1 s on, photon mapping chooses its gather rays
     /// per sample by a short pilot (overrides [render] time).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::float, allow_negative_numbers = true)]
     time: Option<f32>,
     /// With a time budget: write the output image (not denoised) each time
     /// the render has refined, after each round of samples (SPPM: after
@@ -49,7 +49,7 @@ pub struct RenderArgs {
     #[arg(long)]
     photon_map: Option<PathBuf>,
     /// Exposure for PNG output, in stops: each pixel is multiplied by 2^EXPOSURE.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::float, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
     /// Also write these components, each beside the output as NAME-COMPONENT.EXT
     /// (comma-separated). Light: emission (lights seen, also through mirrors
@@ -121,10 +121,10 @@ pub struct SettingArgs {
     #[arg(long, allow_negative_numbers = true)]
     caustic_k: Option<u32>,
     /// Largest search radius of a global estimate (overrides [photons] global_radius).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::float, allow_negative_numbers = true)]
     global_radius: Option<f32>,
     /// Largest search radius of a caustic estimate (overrides [photons] caustic_radius).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::float, allow_negative_numbers = true)]
     caustic_radius: Option<f32>,
     /// Final-gathering rays per camera sample; 0 shows the global map
     /// directly; with a time budget of 1 s or more, a pilot chooses the
@@ -145,7 +145,7 @@ pub struct SettingArgs {
     /// Starting radius of progressive photon mapping (default: each pixel's
     /// own, holding 32 photons of a first batch), and of VCM's merging
     /// (overrides [photons] sppm_radius).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::float, allow_negative_numbers = true)]
     sppm_radius: Option<f32>,
     /// Seed of every random stream: another seed, an independent image (default 0).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0)]

@@ -32,7 +32,7 @@ pub struct MergeArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Exposure for PNG output, in stops.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::float, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
 }
 
