@@ -157,10 +157,11 @@ fn a_region_renders_the_same_pixels_as_the_whole_image() {
 }
 
 #[test]
-fn a_tile_rendered_again_is_the_same_file() {
-    // Byte for byte, header included (its attributes once came out in
-    // another order each run): a job rerun on a cluster, or a checksum of
-    // its output, sees the same file.
+fn a_tile_or_photon_map_made_again_is_the_same_file() {
+    // Byte for byte, header included (a tile's attributes once came out in
+    // another order each run; a photon map file once held how long its
+    // maps took): a job rerun on a cluster, or a checksum of its output,
+    // sees the same file.
     let dir = tempfile::tempdir().unwrap();
     let files: Vec<Vec<u8>> = (0..6)
         .map(|i| {
@@ -174,6 +175,14 @@ fn a_tile_rendered_again_is_the_same_file() {
     assert!(files.iter().all(|f| *f == files[0]), "the same tile written as different bytes");
     let tile = caustix::film::tile::load(&dir.path().join("t0.exr")).unwrap();
     assert_eq!((tile.scene.as_str(), tile.size), ("cornell.toml", (40, 30)));
+    let maps: Vec<Vec<u8>> = (0..2)
+        .map(|i| {
+            let map = dir.path().join(format!("m{i}.cxpm"));
+            cornell_command("photons", "photon", &["-o".as_ref(), map.as_os_str()]);
+            std::fs::read(&map).unwrap()
+        })
+        .collect();
+    assert!(maps[0] == maps[1], "the same photon maps written as different bytes");
 }
 
 #[test]

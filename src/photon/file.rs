@@ -9,8 +9,8 @@
 //! the settings the maps depend on: u64 seed, u8 sampler (0 Sobol, 1
 //!   independent), u32 global photons, u32 caustic photons, u32 max bounces,
 //!   u32 max depth, u8 for gathering, u32 global k, f32 global radius
-//! stats: u64 global emitted, u64 caustic emitted, f64 trace s, f64 build s,
-//!   u64 notes, each u32 length + UTF-8
+//! stats: u64 global emitted, u64 caustic emitted, u64 notes, each u32
+//!   length + UTF-8 (no times: the same maps are the same bytes, run after run)
 //! global map, caustic map: u8 present; u64 photons, each 15 f32 (position,
 //!   incoming, power, normal, face normal), u8 indirect and u8 from a point
 //!   or spot light; u8 precomputed; u64 records,
@@ -37,7 +37,7 @@ use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
 const MAGIC: &[u8; 4] = b"CXPM";
-const VERSION: u32 = 6;
+const VERSION: u32 = 7;
 
 /// What a scene's photon maps depend on besides the scene: two maps are
 /// interchangeable when these and the scene's fingerprint agree.
@@ -196,21 +196,17 @@ impl Writer {
     fn f32(&mut self, v: f32) {
         self.0.extend_from_slice(&v.to_le_bytes());
     }
-    fn f64(&mut self, v: f64) {
-        self.0.extend_from_slice(&v.to_le_bytes());
-    }
     fn vec3(&mut self, v: Vec3) {
         for c in v.to_array() {
             self.f32(c);
         }
     }
-    /// The maps' counts and times, then the maps (read by [`Reader::maps`]).
+    /// The maps' counts, then the maps (read by [`Reader::maps`]). Not how
+    /// long they took: a job run again writes the same file.
     fn maps(&mut self, maps: &PhotonMaps) {
         let st = &maps.stats;
         self.u64(st.global_emitted);
         self.u64(st.caustic_emitted);
-        self.f64(st.trace_seconds);
-        self.f64(st.build_seconds);
         self.u64(st.skipped.len() as u64);
         for note in &st.skipped {
             self.u32(note.len() as u32);
@@ -285,9 +281,6 @@ impl Reader<'_> {
     fn f32(&mut self) -> std::result::Result<f32, Failure> {
         self.take().map(f32::from_le_bytes)
     }
-    fn f64(&mut self) -> std::result::Result<f64, Failure> {
-        self.take().map(f64::from_le_bytes)
-    }
     fn vec3(&mut self) -> std::result::Result<Vec3, Failure> {
         Ok(Vec3::new(self.f32()?, self.f32()?, self.f32()?))
     }
@@ -324,8 +317,9 @@ impl Reader<'_> {
         let stats = PhotonStats {
             global_emitted: self.u64()?,
             caustic_emitted: self.u64()?,
-            trace_seconds: self.f64()?,
-            build_seconds: self.f64()?,
+            // Not saved (they took no time in this run).
+            trace_seconds: 0.0,
+            build_seconds: 0.0,
             // Rays traced now: none (`loaded`).
             rays: RayCount::default(),
             skipped: {
